@@ -1,0 +1,15 @@
+// The `sparseleap` subcommands. Each registers its options on the CLI11 app and runs when chosen.
+#pragma once
+
+#include <CLI/CLI.hpp>
+#include <functional>
+
+namespace sl::app {
+
+// Registers a subcommand; the returned function runs it (after parsing) and returns the exit code.
+using Runner = std::function<int()>;
+Runner add_render_command(CLI::App& app);
+Runner add_gen_command(CLI::App& app);
+Runner add_info_command(CLI::App& app);
+
+}  // namespace sl::app

@@ -1,0 +1,61 @@
+#include "apps/scene_loader.h"
+
+#include <cstdio>
+#include <regex>
+
+#include "cache/generate.h"
+#include "cache/nrrd.h"
+#include "core/error.h"
+
+namespace sl::app {
+
+void parse_size(const std::string& s, int& w, int& h) {
+  static const std::regex re("^([0-9]{1,6})[xX]([0-9]{1,6})$");
+  std::smatch m;
+  if (!std::regex_match(s, m, re)) throw InputError("--size", "expected WxH, e.g. 1024x768, got '" + s + "'");
+  w = std::stoi(m[1]);
+  h = std::stoi(m[2]);
+  if (w < 1 || h < 1 || w > 16384 || h > 16384) {
+    throw InputError("--size", "width and height must be between 1 and 16384");
+  }
+}
+
+LoadedScene load_scene(const SceneOptions& o) {
+  LoadedScene s;
+  if (o.volume.empty()) {
+    GeneratedVolume g = generate_volume("neurites", ivec3(kBuiltinSize), 1);
+    s.volume = std::move(g.intensity);
+    s.labels = std::move(g.labels);
+    s.label_count = g.label_count;
+    s.name = "built-in neurites " + std::to_string(kBuiltinSize) + "^3";
+  } else {
+    s.volume = read_nrrd(o.volume);
+    s.name = o.volume;
+  }
+  if (!o.labels.empty()) {
+    s.labels = read_nrrd(o.labels);
+    if (s.labels.dims() != s.volume.dims()) {
+      throw InputError(o.labels, "label volume dims differ from the intensity volume's");
+    }
+    if (s.labels.type() == VoxelType::F32) throw InputError(o.labels, "label volume must be of an integer type");
+    s.label_count = 0;
+  }
+  if (!s.labels.empty() && s.label_count == 0) s.label_count = max_label(s.labels);
+
+  if (!o.tf.empty()) {
+    s.tf = load_transfer_function(o.tf);
+  } else if (s.volume.type() == VoxelType::U8) {
+    s.tf = default_transfer_function(0.0f, 255.0f);
+  } else {
+    const vec2 r = value_range(s.volume);
+    s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+  }
+  s.camera = o.camera.empty() ? default_camera(s.volume.desc().extent()) : load_camera(o.camera);
+  if (!o.enable.empty()) {
+    if (s.labels.empty()) throw InputError("--enable", "needs a label volume (--labels)");
+    s.enabled = parse_enable_spec(o.enable, s.label_count);
+  }
+  return s;
+}
+
+}  // namespace sl::app

@@ -1,0 +1,101 @@
+#include "core/block_metadata.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <atomic>
+#include <string>
+
+#include "core/error.h"
+
+namespace sl {
+
+namespace {
+std::atomic<std::uint64_t> g_computations{0};
+}  // namespace
+
+void validate_block_size(int block) {
+  if (block != 4 && block != 8 && block != 16 && block != 32) {
+    throw InputError("--block", "culling block size must be 4, 8, 16 or 32 (got " + std::to_string(block) + ")");
+  }
+}
+
+BlockGrid make_block_grid(ivec3 dims, vec3 spacing, int block) {
+  validate_block_size(block);
+  SL_CHECK(dims.x > 0 && dims.y > 0 && dims.z > 0);
+  SL_CHECK(spacing.x > 0.0f && spacing.y > 0.0f && spacing.z > 0.0f);
+  BlockGrid g;
+  g.dims = dims;
+  g.block = block;
+  g.blocks = (dims + block - 1) / block;
+  g.spacing = spacing;
+  return g;
+}
+
+BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
+                                     const VolumeView* labels, int bx, int by, int bz) {
+  SL_CHECK(intensity.dims == grid.dims);
+  SL_CHECK(!labels || labels->dims == grid.dims);
+  SL_CHECK(grid.inside(ivec3(bx, by, bz)));
+  ++g_computations;
+  // Dilated by one voxel: a trilinear sample anywhere in the block's world box reads voxels
+  // floor(p / spacing - 0.5) and that + 1, i.e. [b*B - 1, (b+1)*B] per axis (clamped); a nearest-voxel
+  // label lookup floor(p / spacing) stays within the same range even with rounding at the faces.
+  const ivec3 b(bx, by, bz);
+  const ivec3 lo = glm::max(b * grid.block - 1, ivec3(0));
+  const ivec3 hi = glm::min((b + 1) * grid.block + 1, grid.dims);  // exclusive
+  BlockMetadata m;
+  m.computed = true;
+  float vmin = intensity.value(lo.x, lo.y, lo.z);
+  float vmax = vmin;
+  for (int z = lo.z; z < hi.z; ++z) {
+    for (int y = lo.y; y < hi.y; ++y) {
+      for (int x = lo.x; x < hi.x; ++x) {
+        const float v = intensity.value(x, y, z);
+        vmin = v < vmin ? v : vmin;
+        vmax = v > vmax ? v : vmax;
+      }
+    }
+  }
+  m.min = vmin;
+  m.max = vmax;
+  if (labels) {
+    m.has_labels = true;
+    std::uint32_t last = labels->label(lo.x, lo.y, lo.z);
+    m.labels.push_back(last);
+    for (int z = lo.z; z < hi.z; ++z) {
+      for (int y = lo.y; y < hi.y; ++y) {
+        for (int x = lo.x; x < hi.x; ++x) {
+          const std::uint32_t id = labels->label(x, y, z);
+          if (id == last) continue;  // runs of one label are the common case
+          last = id;
+          m.labels.push_back(id);
+        }
+      }
+    }
+    std::sort(m.labels.begin(), m.labels.end());
+    m.labels.erase(std::unique(m.labels.begin(), m.labels.end()), m.labels.end());
+    m.labels.shrink_to_fit();
+  }
+  return m;
+}
+
+BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
+                                              const VolumeView* labels) {
+  BlockMetadataTable t;
+  t.grid = grid;
+  t.blocks.resize(grid.block_count());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, t.blocks.size()),
+                    [&](const tbb::blocked_range<std::size_t>& r) {
+                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
+                        const ivec3 b = grid.block_coord(i);
+                        t.blocks[i] = compute_block_metadata(grid, intensity, labels, b.x, b.y, b.z);
+                      }
+                    });
+  return t;
+}
+
+std::uint64_t block_metadata_computations() { return g_computations.load(); }
+
+}  // namespace sl

@@ -1,0 +1,93 @@
+// Culling blocks and their metadata (DESIGN.md §3, paper §9.1): intensity min/max over the block
+// dilated by one voxel (the trilinear footprint of every point in the block) and the set of label ids
+// present in that dilated region. Computed once per block; never recomputed for a transfer-function
+// or label change (culling re-reads it, see core/culling.h).
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/config.h"
+#include "core/math.h"
+#include "core/ray.h"
+#include "core/volume.h"
+
+namespace sl {
+
+inline constexpr int kDefaultBlockSize = 16;
+
+// Throws InputError("--block", ...) unless block is 4, 8, 16 or 32.
+void validate_block_size(int block);
+
+// The culling-block grid over a volume. Plain data.
+struct BlockGrid {
+  ivec3 dims{0, 0, 0};    // volume size in voxels
+  int block = kDefaultBlockSize;
+  ivec3 blocks{0, 0, 0};  // ceil(dims / block)
+  vec3 spacing{1.0f};
+
+  // World coordinate of voxel-grid plane v along axis a. Every box in the occupancy pipeline is made
+  // with this one formula, so nested boxes that share a face share it bit for bit (and the slab test
+  // then yields identical t for both, which the same-depth merge rules rely on).
+  SL_HOST_DEVICE float plane(int a, int v) const { return float(v) * spacing[a]; }
+  // World box of voxel-grid region [lo, hi) clipped to the volume.
+  SL_HOST_DEVICE Box3 voxel_box(ivec3 lo, ivec3 hi) const {
+    Box3 b;
+    for (int a = 0; a < 3; ++a) {
+      b.lo[a] = plane(a, lo[a] < dims[a] ? lo[a] : dims[a]);
+      b.hi[a] = plane(a, hi[a] < dims[a] ? hi[a] : dims[a]);
+    }
+    return b;
+  }
+  // World box of block b; the last block along an axis is clipped to the volume.
+  SL_HOST_DEVICE Box3 block_box(ivec3 b) const { return voxel_box(b * block, (b + 1) * block); }
+  SL_HOST_DEVICE Box3 volume_box() const { return voxel_box(ivec3(0), dims); }
+  SL_HOST_DEVICE std::size_t block_count() const {
+    return std::size_t(blocks.x) * std::size_t(blocks.y) * std::size_t(blocks.z);
+  }
+  SL_HOST_DEVICE std::size_t block_index(ivec3 b) const {
+    return (std::size_t(b.z) * std::size_t(blocks.y) + std::size_t(b.y)) * std::size_t(blocks.x) +
+           std::size_t(b.x);
+  }
+  SL_HOST_DEVICE ivec3 block_coord(std::size_t i) const {
+    const std::size_t bx = std::size_t(blocks.x), bxy = bx * std::size_t(blocks.y);
+    return ivec3(int(i % bx), int((i / bx) % std::size_t(blocks.y)), int(i / bxy));
+  }
+  SL_HOST_DEVICE bool inside(ivec3 b) const {
+    return b.x >= 0 && b.y >= 0 && b.z >= 0 && b.x < blocks.x && b.y < blocks.y && b.z < blocks.z;
+  }
+};
+
+// Validates the block size (InputError "--block") and the dims (positive).
+BlockGrid make_block_grid(ivec3 dims, vec3 spacing, int block = kDefaultBlockSize);
+
+struct BlockMetadata {
+  float min = 0.0f;  // intensity range over the block dilated by one voxel, clamped to the volume
+  float max = 0.0f;
+  bool has_labels = false;            // a label volume was given
+  std::vector<std::uint32_t> labels;  // ids present in the dilated block, ascending, unique (incl. 0)
+  bool computed = false;              // false: not yet computed (the lazy out-of-core path)
+};
+
+// Metadata of block (bx, by, bz). `labels` may be null (no label volume). Counts one computation.
+BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
+                                     const VolumeView* labels, int bx, int by, int bz);
+
+struct BlockMetadataTable {
+  BlockGrid grid;
+  std::vector<BlockMetadata> blocks;  // block_index order (x fastest)
+
+  const BlockMetadata& at(ivec3 b) const { return blocks[grid.block_index(b)]; }
+  BlockMetadata& at(ivec3 b) { return blocks[grid.block_index(b)]; }
+};
+
+// All blocks, in parallel (TBB). Deterministic.
+BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
+                                              const VolumeView* labels);
+
+// Number of compute_block_metadata calls so far in this process (tests prove that re-culling for a
+// transfer-function or label change does not recompute metadata).
+std::uint64_t block_metadata_computations();
+
+}  // namespace sl

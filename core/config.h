@@ -1,0 +1,45 @@
+// Shared compile-time configuration for code that both the host compiler and nvcc build.
+#pragma once
+
+// SL_HOST_DEVICE marks functions that the CPU backend and the CUDA kernels both compile
+// (the way pbrt-v4's PBRT_CPU_GPU and NanoVDB's __hostdev__ work). core/ never includes a CUDA header.
+#if defined(__CUDACC__)
+#define SL_HOST_DEVICE __host__ __device__
+#define SL_DEVICE_CODE 1
+#else
+#define SL_HOST_DEVICE
+#define SL_DEVICE_CODE 0
+#endif
+
+#if !defined(__CUDA_ARCH__)
+#include <cassert>
+#include <stdexcept>
+#include <string>
+#endif
+
+namespace sl {
+
+#if !defined(__CUDA_ARCH__)
+// Always-on check of an internal invariant (not of user input: that throws InputError).
+[[noreturn]] inline void check_failed(const char* expr, const char* file, int line) {
+  throw std::logic_error(std::string("internal check failed: ") + expr + " at " + file + ":" +
+                         std::to_string(line));
+}
+#endif
+
+}  // namespace sl
+
+#if defined(__CUDA_ARCH__)
+#define SL_CHECK(cond) assert(cond)
+#else
+#define SL_CHECK(cond) \
+  do { \
+    if (!(cond)) ::sl::check_failed(#cond, __FILE__, __LINE__); \
+  } while (0)
+#endif
+
+#ifdef NDEBUG
+#define SL_DCHECK(cond) ((void)0)
+#else
+#define SL_DCHECK(cond) assert(cond)
+#endif

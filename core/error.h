@@ -1,0 +1,25 @@
+// Errors in user input: one exception type carrying the offending file and the reason.
+// Libraries throw it; apps/ catches it once, prints one line and exits non-zero.
+#pragma once
+
+#include <stdexcept>
+#include <string>
+
+namespace sl {
+
+class InputError : public std::runtime_error {
+ public:
+  InputError(std::string file, std::string reason)
+      : std::runtime_error(file.empty() ? reason : file + ": " + reason),
+        file_(std::move(file)),
+        reason_(std::move(reason)) {}
+
+  const std::string& file() const { return file_; }
+  const std::string& reason() const { return reason_; }
+
+ private:
+  std::string file_;
+  std::string reason_;
+};
+
+}  // namespace sl

@@ -1,0 +1,59 @@
+#include "core/json_util.h"
+
+#include <cmath>
+#include <fstream>
+#include <sstream>
+
+#include "core/error.h"
+
+namespace sl {
+
+std::string read_file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "cannot open file");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  if (in.bad()) throw InputError(path, "read error");
+  return ss.str();
+}
+
+nlohmann::json parse_json(const std::string& text, const std::string& origin) {
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::parse_error& e) {
+    std::string what = e.what();
+    // nlohmann's message starts with "[json.exception.parse_error.101] "; keep what follows.
+    const auto pos = what.find("] ");
+    throw InputError(origin, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
+  }
+}
+
+float json_number(const nlohmann::json& j, const char* key, const std::string& origin) {
+  if (!j.contains(key)) throw InputError(origin, std::string("missing \"") + key + "\"");
+  const auto& v = j[key];
+  if (!v.is_number()) throw InputError(origin, std::string("\"") + key + "\" must be a number");
+  const double d = v.get<double>();
+  if (!std::isfinite(d)) throw InputError(origin, std::string("\"") + key + "\" is not finite");
+  return float(d);
+}
+
+vec3 json_vec3(const nlohmann::json& j, const char* key, const std::string& origin, bool required) {
+  if (!j.contains(key)) {
+    if (required) throw InputError(origin, std::string("missing \"") + key + "\"");
+    return vec3(0.0f);
+  }
+  const auto& v = j[key];
+  if (!v.is_array() || v.size() != 3) {
+    throw InputError(origin, std::string("\"") + key + "\" must be an array of 3 numbers");
+  }
+  vec3 r;
+  for (int i = 0; i < 3; ++i) {
+    if (!v[i].is_number()) throw InputError(origin, std::string("\"") + key + "\" must hold numbers");
+    const double d = v[i].get<double>();
+    if (!std::isfinite(d)) throw InputError(origin, std::string("\"") + key + "\" is not finite");
+    r[i] = float(d);
+  }
+  return r;
+}
+
+}  // namespace sl

@@ -1,0 +1,52 @@
+// View-independent occupancy geometry (paper §6.1, Alg. 2; DESIGN.md §6): nested boxes emitted
+// breadth first wherever a node's class differs from its parent's. Regenerated only when occupancy
+// changes (TF, labels, tree growth), reused across views.
+#pragma once
+
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+#include "core/occupancy.h"
+#include "core/occupancy_tree.h"
+#include "core/ray.h"
+
+namespace sl {
+
+// One emitted box. Plain data, 32 bytes (the GL side uploads it; note std430 pads vec3 to 16 bytes,
+// so a shader reads it as floats, not as two vec3).
+struct OccupancyBox {
+  Box3 box;                     // world space, clipped to the volume box
+  OccupancyClass cls = OccupancyClass::Invalid;
+  OccupancyClass parent_cls = OccupancyClass::Invalid;  // Invalid for the root (Alg. 2)
+  std::uint8_t depth = 0;
+  std::uint8_t pad = 0;
+  std::uint32_t node = 0;       // index in OccupancyTree::nodes()
+};
+static_assert(sizeof(OccupancyBox) == 32, "OccupancyBox layout");
+
+struct OccupancyGeometry {
+  static constexpr std::uint32_t kNoBox = 0xFFFFFFFFu;
+  std::vector<OccupancyBox> boxes;       // Alg. 2 order: coarse before fine
+  std::vector<std::uint32_t> node_box;   // per tree node slot: its box, or kNoBox
+  // Nodes at this depth act as leaves (the box budget cut the traversal there); an inner node cut off
+  // takes its conservative class (NON_EMPTY if anything below is, else UNKNOWN if anything is, else
+  // EMPTY), so a budget coarsens the lists but never turns anything non-empty into EMPTY.
+  int depth_limit = OccupancyTree::kMaxLevels;
+  bool truncated = false;
+};
+
+// Alg. 2. box_budget = 0: unlimited; otherwise at most max(box_budget, 1) boxes, cutting the tree at
+// the deepest level that fits. Nodes wholly outside the volume emit nothing.
+OccupancyGeometry build_occupancy_geometry(const OccupancyTree& tree, std::size_t box_budget = 0);
+
+// The class a node has in the geometry's (possibly truncated) tree, and whether it acts as a leaf.
+OccupancyClass effective_class(const OccupancyTree& tree, const OccupancyGeometry& g, std::uint32_t node);
+bool effective_leaf(const OccupancyTree& tree, const OccupancyGeometry& g, std::uint32_t node);
+
+// The leaves of the tree cut at depth_limit, clipped to the volume (wholly outside ones dropped), with
+// their effective classes (parent_cls = Invalid). The brute-force truth for tests, and the
+// "non-empty bricks" of the bounding-geometry baseline.
+std::vector<OccupancyBox> leaf_boxes(const OccupancyTree& tree, int depth_limit = OccupancyTree::kMaxLevels);
+
+}  // namespace sl

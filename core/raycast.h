@@ -1,0 +1,180 @@
+// Per-ray integration along the global sample grid t_k = t_entry + k * dt (DESIGN.md §8). Every
+// skipping method calls march() on the index ranges it does not skip, so all methods take the very
+// same samples in the same order and produce the same image when culling is conservative.
+// Compiled by the CPU backend and, unchanged, by the CUDA kernels (SL_HOST_DEVICE).
+#pragma once
+
+#include <cstdint>
+
+#include "core/config.h"
+#include "core/labels.h"
+#include "core/math.h"
+#include "core/ray.h"
+#include "core/render_mode.h"
+#include "core/sampling.h"
+#include "core/transfer_function.h"
+
+namespace sl {
+
+struct CastParams {
+  RenderMode mode = RenderMode::Dvr;
+  float dt = 0.5f;         // world distance between samples = step * min(spacing)
+  float inv_dt = 2.0f;
+  float iso = 0.5f;
+  bool ert = false;        // early ray termination at A >= ert_threshold
+  float ert_threshold = 0.99f;
+  bool label_mask = false; // a sample contributes only where its label is enabled
+  vec3 spacing{1.0f};
+  TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md §8)
+  LabelSetView labels;
+};
+
+// Accumulated state of one ray (front-to-back, premultiplied).
+struct RayAccum {
+  vec3 color{0.0f};
+  float alpha = 0.0f;
+  float mip_max = 0.0f;
+  float hit_t = -1.0f;               // iso: ray parameter of the surface hit (-1: none)
+  std::uint32_t samples = 0;         // samples taken
+  std::uint32_t useful_samples = 0;  // samples that contributed (opacity > 0)
+  int prev_k = -2;                   // index of the previous sample taken (iso bracketing)
+  float prev_v = 0.0f;
+  bool mip_any = false;
+  bool done = false;                 // terminated (ERT or iso hit): later spans are not sampled
+};
+
+// Index of the first grid sample at or after t (clamped at 0). Every method converts its span
+// boundaries with this one function, so adjacent spans partition the grid exactly.
+SL_HOST_DEVICE inline int sample_index(float t, float t_entry, float inv_dt) {
+  const float x = (t - t_entry) * inv_dt;
+  if (!(x > 0.0f)) return 0;
+  return x > 2.0e9f ? 2000000000 : int(ceilf(x));
+}
+
+// Blinn–Phong with a headlight (light along the view ray), two-sided.
+SL_HOST_DEVICE inline vec3 shade_headlight(const vec3& base, const vec3& gradient, const vec3& view_dir) {
+  const float len = glm::length(gradient);
+  if (!(len > 0.0f)) return 0.3f * base;
+  vec3 n = gradient / len;
+  if (glm::dot(n, view_dir) > 0.0f) n = -n;  // face the viewer
+  const float diffuse = glm::max(0.0f, -glm::dot(n, view_dir));
+  const float specular = powf(diffuse, 32.0f);  // half vector == light == -view_dir for a headlight
+  return base * (0.25f + 0.75f * diffuse) + vec3(0.3f * specular);
+}
+
+template <class VolT, class LabT>
+struct RayCaster {
+  CastParams p;
+  DenseGrid<VolT> volume;
+  DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
+
+  SL_HOST_DEVICE bool visible_label(const vec3& pos) const {
+    return !p.label_mask || p.labels.enabled(labels.label_at(pos));
+  }
+
+  // Samples k in [k0, k1). Returns false once the ray has terminated.
+  SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc) const {
+    if (acc.done) return false;
+    if (p.mode == RenderMode::Iso && k0 > 0 && acc.prev_k != k0 - 1 && k0 < k1) {
+      // Prime the bracket with the sample before the span, so a crossing right at a span's start
+      // is found exactly as a method without skipping finds it.
+      const float t = t_entry + float(k0 - 1) * p.dt;
+      acc.prev_v = volume.sample(ray.at(t));
+      acc.prev_k = k0 - 1;
+      ++acc.samples;
+    }
+    for (int k = k0; k < k1; ++k) {
+      const float t = t_entry + float(k) * p.dt;
+      const vec3 pos = ray.at(t);
+      const float v = volume.sample(pos);
+      ++acc.samples;
+      switch (p.mode) {
+        case RenderMode::Dvr: {
+          if (!visible_label(pos)) break;
+          const vec4 c = p.tf.lookup(v);
+          if (c.w > 0.0f) {
+            const float w = (1.0f - acc.alpha) * c.w;
+            acc.color += w * vec3(c);
+            acc.alpha += w;
+            ++acc.useful_samples;
+            if (p.ert && acc.alpha >= p.ert_threshold) {
+              acc.done = true;
+              return false;
+            }
+          }
+          break;
+        }
+        case RenderMode::Labels: {
+          const std::uint32_t id = labels.data ? labels.label_at(pos) : 0u;
+          if (id == 0u || !p.labels.enabled(id)) break;
+          const float a = p.tf.lookup(v).w;
+          if (a > 0.0f) {
+            const float w = (1.0f - acc.alpha) * a;
+            acc.color += w * label_color(id);
+            acc.alpha += w;
+            ++acc.useful_samples;
+            if (p.ert && acc.alpha >= p.ert_threshold) {
+              acc.done = true;
+              return false;
+            }
+          }
+          break;
+        }
+        case RenderMode::Mip: {
+          if (!visible_label(pos)) break;
+          if (!acc.mip_any || v > acc.mip_max) acc.mip_max = v;
+          acc.mip_any = true;
+          ++acc.useful_samples;
+          break;
+        }
+        case RenderMode::Iso: {
+          if (acc.prev_k == k - 1 && ((acc.prev_v < p.iso) != (v < p.iso))) {
+            if (iso_hit(ray, t - p.dt, acc.prev_v, t, v, acc)) return false;
+          }
+          acc.prev_v = v;
+          acc.prev_k = k;
+          break;
+        }
+      }
+    }
+    return true;
+  }
+
+  // Refines a bracketed crossing by bisection, then shades it; false if its label is masked out.
+  SL_HOST_DEVICE bool iso_hit(const Ray& ray, float ta, float va, float tb, float vb, RayAccum& acc) const {
+    const bool a_below = va < p.iso;
+    for (int i = 0; i < 12; ++i) {
+      const float tm = 0.5f * (ta + tb);
+      const float vm = volume.sample(ray.at(tm));
+      if ((vm < p.iso) == a_below) {
+        ta = tm;
+        va = vm;
+      } else {
+        tb = tm;
+        vb = vm;
+      }
+    }
+    const float f = vb != va ? (p.iso - va) / (vb - va) : 0.5f;
+    const float th = ta + glm::clamp(f, 0.0f, 1.0f) * (tb - ta);
+    const vec3 hit = ray.at(th);
+    if (!visible_label(hit)) return false;
+    const vec3 base = vec3(p.tf.lookup(p.iso));
+    acc.color = shade_headlight(base, volume.gradient(hit, p.spacing), ray.dir);
+    acc.alpha = 1.0f;
+    acc.hit_t = th;
+    acc.done = true;
+    ++acc.useful_samples;
+    return true;
+  }
+
+  // Final premultiplied RGBA of the ray.
+  SL_HOST_DEVICE vec4 resolve(const RayAccum& acc) const {
+    if (p.mode == RenderMode::Mip) {
+      if (!acc.mip_any) return vec4(0.0f);
+      return vec4(vec3(p.tf.lookup(acc.mip_max)), 1.0f);
+    }
+    return vec4(acc.color, acc.alpha);
+  }
+};
+
+}  // namespace sl

@@ -1,0 +1,43 @@
+#include "core/render_mode.h"
+
+#include "core/error.h"
+
+namespace sl {
+
+RenderMode parse_render_mode(const std::string& s) {
+  if (s == "dvr") return RenderMode::Dvr;
+  if (s == "mip") return RenderMode::Mip;
+  if (s == "iso") return RenderMode::Iso;
+  if (s == "labels") return RenderMode::Labels;
+  throw InputError("--mode", "unknown mode '" + s + "' (expected dvr, mip, iso or labels)");
+}
+
+SkipMethod parse_skip_method(const std::string& s) {
+  if (s == "none") return SkipMethod::None;
+  if (s == "bbox") return SkipMethod::BBox;
+  if (s == "octree") return SkipMethod::Octree;
+  if (s == "sparseleap") return SkipMethod::SparseLeap;
+  throw InputError("--method", "unknown method '" + s + "' (expected none, bbox, octree or sparseleap)");
+}
+
+const char* to_string(RenderMode m) {
+  switch (m) {
+    case RenderMode::Dvr: return "dvr";
+    case RenderMode::Mip: return "mip";
+    case RenderMode::Iso: return "iso";
+    case RenderMode::Labels: return "labels";
+  }
+  return "?";
+}
+
+const char* to_string(SkipMethod m) {
+  switch (m) {
+    case SkipMethod::None: return "none";
+    case SkipMethod::BBox: return "bbox";
+    case SkipMethod::Octree: return "octree";
+    case SkipMethod::SparseLeap: return "sparseleap";
+  }
+  return "?";
+}
+
+}  // namespace sl

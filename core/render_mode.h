@@ -1,0 +1,20 @@
+// What a ray computes along its samples (DESIGN.md §8).
+#pragma once
+
+#include <cstdint>
+#include <string>
+
+namespace sl {
+
+enum class RenderMode : std::uint8_t { Dvr = 0, Mip = 1, Iso = 2, Labels = 3 };
+
+// Empty-space skipping method; all produce the same image (DESIGN.md §8: one global sample grid).
+enum class SkipMethod : std::uint8_t { None = 0, BBox = 1, Octree = 2, SparseLeap = 3 };
+
+// Parse/print the command-line names; parse throws InputError(option, reason).
+RenderMode parse_render_mode(const std::string& s);
+SkipMethod parse_skip_method(const std::string& s);
+const char* to_string(RenderMode m);
+const char* to_string(SkipMethod m);
+
+}  // namespace sl

@@ -1,0 +1,201 @@
+// Ray events and per-pixel ray segment lists (paper §7, Alg. 4-5; DESIGN.md §7). Shared by the CPU
+// builder, the CUDA caster and (mirrored line by line) the GL fragment shader: keep it plain.
+//
+// A list is a front-to-back sequence of events; segment i is [events[i].t, events[i+1].t) with class
+// events[i].cls. A complete list ends with an event of class INVALID (the volume exit). A list whose
+// last event is not INVALID overflowed: its last segment extends to the volume exit.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/config.h"
+#include "core/occupancy.h"
+#include "core/ray.h"
+
+namespace sl {
+
+enum class EventType : std::uint8_t { Entry = 0, Exit = 1 };
+
+struct RayEvent {
+  float t;             // ray parameter (world distance along the normalised direction)
+  std::uint8_t type;   // EventType
+  std::uint8_t cls;    // OccupancyClass of the segment that starts here
+  std::uint16_t pad;
+};
+static_assert(sizeof(RayEvent) == 8, "RayEvent layout (mirrored by the GL shader)");
+
+inline constexpr std::uint32_t kMaxEvents = 64;            // per-pixel capacity (compile-time maximum)
+inline constexpr std::uint32_t kListOverflow = 0x80000000u;  // flag bit in a list's count word
+inline constexpr std::uint32_t kListCountMask = 0x7FFFFFFFu;
+
+SL_HOST_DEVICE inline OccupancyClass event_class(const RayEvent& e) { return OccupancyClass(e.cls); }
+
+namespace detail {
+
+SL_HOST_DEVICE inline RayEvent make_event(float t, EventType type, OccupancyClass cls) {
+  RayEvent e;
+  e.t = t;
+  e.type = std::uint8_t(type);
+  e.cls = std::uint8_t(cls);
+  e.pad = 0;
+  return e;
+}
+
+// Short-gap rule, conservative form (Alg. 5 lines 16-25 as DESIGN.md §7 allows them): `next` starts a
+// NON_EMPTY/UNKNOWN segment at next.t; if the segment before it, [ev[n-1].t, next.t), is EMPTY and
+// shorter than eps, that EMPTY segment is absorbed: the non-empty segment starts at ev[n-1].t instead.
+// Never turns anything non-empty or unknown into EMPTY. Returns the new count, or 0xFFFFFFFF when
+// the rule does not apply.
+SL_HOST_DEVICE inline std::uint32_t absorb_short_gap(RayEvent* ev, std::uint32_t n, const RayEvent& next, float eps) {
+  if (!(eps > 0.0f) || n == 0u || !needs_sampling(OccupancyClass(next.cls))) return 0xFFFFFFFFu;
+  RayEvent& gap = ev[n - 1];
+  if (gap.cls != std::uint8_t(OccupancyClass::Empty) || !(next.t - gap.t < eps)) return 0xFFFFFFFFu;
+  gap.cls = next.cls;
+  gap.type = next.type;
+  if (n >= 2u && ev[n - 2].cls == gap.cls) --n;  // now continues the segment before: drop it
+  return n;
+}
+
+}  // namespace detail
+
+// Adds one event to the list tail (events[0..count), count word with the overflow flag), applying the
+// merge rules of Alg. 5 exactly as segment_rules.py's add_event, then the conservative short-gap rule
+// when eps > 0. `capacity` <= kMaxEvents.
+SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, std::uint32_t capacity, float t,
+                                     EventType type, OccupancyClass cls, float eps) {
+  if (count_word & kListOverflow) return;  // overflowed: the tail is already conservative
+  std::uint32_t n = count_word;
+  // Monotonicity guard (not in the paper): events arrive front to back, so an earlier t can only come
+  // from rounding or from a ray lying in a shared face; treat it as coincident with the tail.
+  if (n > 0u && t < ev[n - 1].t) t = ev[n - 1].t;
+  const RayEvent e = detail::make_event(t, type, cls);
+  if (n > 0u && ev[n - 1].t == t) {  // isEqual(eventPrev.depth, depth): the same-depth rules
+    RayEvent& prev = ev[n - 1];
+    if (prev.type == e.type) {
+      // Alg. 5, rule 1 (2x ENTRY or 2x EXIT): keep the last only...
+      prev.cls = e.cls;
+      // ...and drop it if it now repeats the class before it (minimality, DESIGN.md §7).
+      if (n >= 2u && ev[n - 2].cls == e.cls) {
+        --n;
+      } else {
+        const RayEvent tail = prev;
+        const std::uint32_t m = detail::absorb_short_gap(ev, n - 1u, tail, eps);
+        if (m != 0xFFFFFFFFu) n = m;
+      }
+      count_word = n;
+      return;
+    }
+    if (e.type == std::uint8_t(EventType::Exit)) {  // Alg. 5, rule 2: ENTRY then EXIT, delete both
+      count_word = n - 1u;
+      return;
+    }
+    if (n >= 2u && ev[n - 2].cls == e.cls) {  // Alg. 5, rule 3: EXIT then ENTRY back to the same class
+      count_word = n - 1u;
+      return;
+    }
+  }
+  if (n > 0u && ev[n - 1].cls == e.cls) return;  // no-op event: the class does not change
+  const std::uint32_t m = detail::absorb_short_gap(ev, n, e, eps);
+  if (m != 0xFFFFFFFFu) {
+    count_word = m;
+    return;
+  }
+  if (n >= capacity) {
+    // Full: keep what we have and make the open tail conservative (it extends to the volume exit).
+    if (n > 0u && ev[n - 1].cls == std::uint8_t(OccupancyClass::Empty)) {
+      ev[n - 1].cls = std::uint8_t(OccupancyClass::NonEmpty);
+    }
+    count_word = n | kListOverflow;
+    return;
+  }
+  ev[n] = e;
+  count_word = n + 1u;
+}
+
+// Alg. 4 for one box and one ray: FRONT -> ENTRY event with the box's class at the entry t (0 when the
+// box holds the ray origin); BACK -> EXIT event with the parent's class at the exit t. Boxes missed
+// (t0 >= t1, grazing included) or entirely behind the origin (t1 <= 0) add nothing.
+SL_HOST_DEVICE inline void add_box_event(RayEvent* ev, std::uint32_t& count_word, std::uint32_t capacity,
+                                         const Ray& ray, const Box3& box, bool front, OccupancyClass cls,
+                                         OccupancyClass parent_cls, float eps) {
+  const Interval iv = intersect(ray, box);
+  if (iv.empty() || !(iv.t1 > 0.0f)) return;
+  if (front) {
+    add_event(ev, count_word, capacity, iv.t0 > 0.0f ? iv.t0 : 0.0f, EventType::Entry, cls, eps);
+  } else {
+    add_event(ev, count_word, capacity, iv.t1, EventType::Exit, parent_cls, eps);
+  }
+}
+
+// A fixed-capacity list held by value (CUDA threads, tests).
+struct SegmentList {
+  RayEvent events[kMaxEvents];
+  std::uint32_t count_word = 0;
+  SL_HOST_DEVICE std::uint32_t count() const { return count_word & kListCountMask; }
+  SL_HOST_DEVICE bool overflowed() const { return (count_word & kListOverflow) != 0u; }
+  SL_HOST_DEVICE void add(float t, EventType type, OccupancyClass cls, float eps = 0.0f) {
+    add_event(events, count_word, kMaxEvents, t, type, cls, eps);
+  }
+};
+
+// A segment of a list, as the caster walks it (Alg. 6).
+struct RaySegment {
+  float t0 = 0.0f;
+  float t1 = 0.0f;
+  OccupancyClass cls = OccupancyClass::Invalid;
+};
+
+// Number of segments of a list of n events: n - 1 when it ends with INVALID; n when it is open
+// (overflowed), its last segment then ending at the volume exit.
+SL_HOST_DEVICE inline std::uint32_t segment_count(const RayEvent* ev, std::uint32_t n) {
+  if (n == 0u) return 0u;
+  return ev[n - 1].cls == std::uint8_t(OccupancyClass::Invalid) ? n - 1u : n;
+}
+SL_HOST_DEVICE inline RaySegment list_segment(const RayEvent* ev, std::uint32_t n, std::uint32_t k, float t_exit) {
+  RaySegment s;
+  s.t0 = ev[k].t;
+  s.t1 = k + 1u < n ? ev[k + 1].t : t_exit;
+  s.cls = OccupancyClass(ev[k].cls);
+  return s;
+}
+
+// Plain view of all pixels' lists: pixel i's events are events[i * capacity ...], its count word
+// counts[i] (low 31 bits: events; top bit: overflow). Copyable to a device.
+struct SegmentListView {
+  const RayEvent* events = nullptr;
+  const std::uint32_t* counts = nullptr;
+  int width = 0;
+  int height = 0;
+  std::uint32_t capacity = kMaxEvents;
+
+  SL_HOST_DEVICE std::uint32_t count(std::size_t pixel) const { return counts[pixel] & kListCountMask; }
+  SL_HOST_DEVICE bool overflowed(std::size_t pixel) const { return (counts[pixel] & kListOverflow) != 0u; }
+  SL_HOST_DEVICE const RayEvent* list(std::size_t pixel) const { return events + pixel * capacity; }
+};
+
+// Host storage: W*H*capacity events plus one count word per pixel.
+struct SegmentListBuffer {
+  int width = 0;
+  int height = 0;
+  std::uint32_t capacity = kMaxEvents;
+  std::vector<RayEvent> events;
+  std::vector<std::uint32_t> counts;
+
+  void reset(int w, int h, std::uint32_t cap = kMaxEvents) {
+    SL_CHECK(w >= 0 && h >= 0 && cap >= 2u && cap <= kMaxEvents);
+    width = w;
+    height = h;
+    capacity = cap;
+    events.resize(std::size_t(w) * std::size_t(h) * cap);
+    counts.assign(std::size_t(w) * std::size_t(h), 0u);
+  }
+  std::size_t pixel(int x, int y) const { return std::size_t(y) * std::size_t(width) + std::size_t(x); }
+  RayEvent* list(std::size_t i) { return events.data() + i * capacity; }
+  const RayEvent* list(std::size_t i) const { return events.data() + i * capacity; }
+  std::uint32_t count(std::size_t i) const { return counts[i] & kListCountMask; }
+  bool overflowed(std::size_t i) const { return (counts[i] & kListOverflow) != 0u; }
+  SegmentListView view() const { return SegmentListView{events.data(), counts.data(), width, height, capacity}; }
+};
+
+}  // namespace sl

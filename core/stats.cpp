@@ -1,0 +1,48 @@
+#include "core/stats.h"
+
+#include <cstdio>
+#include <nlohmann/json.hpp>
+
+namespace sl {
+
+std::string stats_to_json(const Stats& s) {
+  nlohmann::json j;
+  j["width"] = s.width;
+  j["height"] = s.height;
+  j["backend"] = s.backend;
+  j["method"] = s.method;
+  j["mode"] = s.mode;
+  j["time_ms"] = {{"total", s.time_ms.total},       {"metadata", s.time_ms.metadata},
+                  {"tree", s.time_ms.tree},         {"geometry", s.time_ms.geometry},
+                  {"order", s.time_ms.order},       {"lists", s.time_ms.lists},
+                  {"raycast", s.time_ms.raycast}};
+  j["samples"] = s.samples;
+  j["useful_samples"] = s.useful_samples;
+  j["rays"] = s.rays;
+  j["boxes"] = s.boxes;
+  j["events"] = s.events;
+  j["occupancy_misses"] = s.occupancy_misses;
+  j["list_overflows"] = s.list_overflows;
+  j["metadata_blocks"] = s.metadata_blocks;
+  j["tree"] = {{"nodes", s.tree_nodes}};
+  j["depth_complexity"] = {{"avg", s.depth_complexity_avg}, {"max", s.depth_complexity_max}};
+  return j.dump(2);
+}
+
+std::string stats_summary(const Stats& s) {
+  char buf[512];
+  std::snprintf(buf, sizeof buf,
+                "%dx%d %s %s %s: %.1f ms (raycast %.1f ms), %llu samples (%.1f%% useful)",
+                s.width, s.height, s.backend.c_str(), s.method.c_str(), s.mode.c_str(),
+                s.time_ms.total, s.time_ms.raycast, (unsigned long long)s.samples,
+                s.samples ? 100.0 * double(s.useful_samples) / double(s.samples) : 0.0);
+  std::string line = buf;
+  if (s.depth_complexity_max > 0) {
+    std::snprintf(buf, sizeof buf, ", depth complexity avg %.2f max %u", s.depth_complexity_avg,
+                  s.depth_complexity_max);
+    line += buf;
+  }
+  return line;
+}
+
+}  // namespace sl

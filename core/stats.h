@@ -1,0 +1,49 @@
+// One stats struct filled by every stage and printed by every front end (STYLE.md #10).
+#pragma once
+
+#include <chrono>
+#include <cstdint>
+#include <string>
+
+namespace sl {
+
+struct StageTimes {
+  double total = 0, metadata = 0, tree = 0, geometry = 0, order = 0, lists = 0, raycast = 0;
+};
+
+struct Stats {
+  int width = 0;
+  int height = 0;
+  std::string backend = "cpu";
+  std::string method;
+  std::string mode;
+  StageTimes time_ms;
+  std::uint64_t samples = 0;            // samples taken, all rays
+  std::uint64_t useful_samples = 0;     // samples that contributed (opacity > 0)
+  std::uint64_t rays = 0;               // rays that met the volume box
+  std::uint64_t boxes = 0;              // occupancy-geometry boxes
+  std::uint64_t events = 0;             // ray events in all segment lists
+  std::uint64_t occupancy_misses = 0;   // UNKNOWN segments sampled
+  std::uint64_t list_overflows = 0;     // pixels whose list hit its capacity
+  std::uint64_t metadata_blocks = 0;    // blocks whose metadata exists
+  std::uint64_t tree_nodes = 0;
+  double depth_complexity_avg = 0;      // segments (SparseLeap) / nodes (octree) per ray
+  std::uint32_t depth_complexity_max = 0;
+};
+
+std::string stats_to_json(const Stats& s);
+// One line for people: size, backend, method, milliseconds, samples.
+std::string stats_summary(const Stats& s);
+
+class Timer {
+ public:
+  Timer() : start_(std::chrono::steady_clock::now()) {}
+  double ms() const {
+    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start_).count();
+  }
+
+ private:
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace sl

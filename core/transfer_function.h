@@ -1,0 +1,80 @@
+// Piecewise-linear RGBA transfer function (DESIGN.md §8): control points, the sampled table casters
+// read, and the O(1) max-opacity range query that culling uses (DESIGN.md §5).
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/config.h"
+#include "core/math.h"
+
+namespace sl {
+
+struct TfPoint {
+  float value = 0.0f;
+  vec4 rgba{0.0f};  // components in [0, 1], not premultiplied
+};
+
+// Plain view of a sampled table: entry i holds the function at vmin + i / inv_step.
+struct TransferFunctionView {
+  const vec4* table = nullptr;
+  int size = 0;
+  float vmin = 0.0f;
+  float inv_step = 0.0f;  // entries per data unit (0 for a constant function)
+
+  SL_HOST_DEVICE vec4 lookup(float v) const {
+    float x = (v - vmin) * inv_step;
+    const float last = float(size - 1);
+    x = x < 0.0f ? 0.0f : (x > last ? last : x);
+    int i = int(x);
+    if (i > size - 2) i = size - 2;
+    const float f = x - float(i);
+    return table[i] + f * (table[i + 1] - table[i]);
+  }
+};
+
+class TransferFunction {
+ public:
+  static constexpr int kTableSize = 4096;
+
+  TransferFunction() = default;
+  // Throws InputError(origin, ...) for no points, values not ascending, components outside [0, 1].
+  TransferFunction(std::vector<TfPoint> points, const std::string& origin = "transfer function");
+
+  const std::vector<TfPoint>& points() const { return points_; }
+  float vmin() const { return points_.front().value; }
+  float vmax() const { return points_.back().value; }
+
+  // The exact piecewise-linear function (for tests and editors).
+  vec4 evaluate(float v) const;
+  // Table with opacity corrected for a sample distance of `step` times the reference distance:
+  // α' = 1 − (1 − α)^step. step = 1 gives the uncorrected table.
+  const std::vector<vec4>& table(float step) const;
+  TransferFunctionView view(float step) const;
+
+  // Largest table opacity over data values [lo, hi] (conservative for linear interpolation between
+  // table entries); O(1) by a sparse range-maximum table.
+  float max_opacity(float lo, float hi) const;
+
+  // Multiplies every opacity by s (clamped to 1); rebuilds the tables.
+  TransferFunction scaled_opacity(float s) const;
+
+ private:
+  void build();
+
+  std::vector<TfPoint> points_;
+  std::vector<vec4> table_;                     // uncorrected, kTableSize entries
+  std::vector<std::vector<float>> range_max_;   // range_max_[k][i] = max alpha over [i, i + 2^k)
+  mutable float corrected_step_ = -1.0f;
+  mutable std::vector<vec4> corrected_;
+};
+
+// Reads `{"points":[{"value":v,"rgba":[r,g,b,a]},...]}`; InputError names the file.
+TransferFunction load_transfer_function(const std::string& path);
+TransferFunction parse_transfer_function(const std::string& json_text, const std::string& origin);
+std::string transfer_function_to_json(const TransferFunction& tf);
+
+// Sensible defaults: for neurite-like u8 data (0 = background), and a ramp over [lo, hi].
+TransferFunction default_transfer_function(float lo, float hi);
+
+}  // namespace sl

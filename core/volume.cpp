@@ -1,0 +1,96 @@
+#include "core/volume.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include <tbb/parallel_reduce.h>
+#include <tbb/blocked_range.h>
+
+#include "core/error.h"
+
+namespace sl {
+
+const char* to_string(VoxelType t) {
+  switch (t) {
+    case VoxelType::U8: return "u8";
+    case VoxelType::U16: return "u16";
+    case VoxelType::U32: return "u32";
+    case VoxelType::F32: return "f32";
+  }
+  return "?";
+}
+
+void validate_desc(const VolumeDesc& d, const std::string& file, std::uint64_t max_bytes) {
+  for (int a = 0; a < 3; ++a) {
+    if (d.dims[a] <= 0) {
+      throw InputError(file, "dimension " + std::to_string(a) + " is " + std::to_string(d.dims[a]) +
+                                 " (must be positive)");
+    }
+    if (!(d.spacing[a] > 0.0f) || !std::isfinite(d.spacing[a])) {
+      throw InputError(file, "spacing along axis " + std::to_string(a) + " is not a positive number");
+    }
+  }
+  // Overflow-safe product: each dim < 2^31, so two dims fit in 62 bits; check the third by division.
+  const std::uint64_t xy = std::uint64_t(d.dims.x) * std::uint64_t(d.dims.y);
+  const std::uint64_t limit = max_bytes / std::uint64_t(voxel_size(d.type));
+  if (xy > limit || std::uint64_t(d.dims.z) > limit / xy) {
+    throw InputError(file, "dims " + std::to_string(d.dims.x) + "x" + std::to_string(d.dims.y) + "x" +
+                               std::to_string(d.dims.z) + " of " + to_string(d.type) +
+                               " exceed the in-memory limit of " + std::to_string(max_bytes >> 20) +
+                               " MiB");
+  }
+}
+
+Volume::Volume(const VolumeDesc& desc, const std::string& origin) : desc_(desc) {
+  validate_desc(desc_, origin);
+  bytes_.assign(desc_.byte_size(), std::byte{0});
+}
+
+void Volume::set(int x, int y, int z, float v) {
+  const std::uint64_t i = view().index(x, y, z);
+  auto clampi = [&](double lo, double hi) { return std::fmin(std::fmax(std::nearbyint(v), lo), hi); };
+  switch (desc_.type) {
+    case VoxelType::U8: as<std::uint8_t>()[i] = std::uint8_t(clampi(0, 255)); break;
+    case VoxelType::U16: as<std::uint16_t>()[i] = std::uint16_t(clampi(0, 65535)); break;
+    case VoxelType::U32: as<std::uint32_t>()[i] = std::uint32_t(clampi(0, 4294967295.0)); break;
+    case VoxelType::F32: as<float>()[i] = v; break;
+  }
+}
+
+std::uint32_t max_label(const Volume& labels) {
+  const VolumeView v = labels.view();
+  const std::uint64_t n = labels.desc().voxel_count();
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::uint64_t>(0, n, 1 << 16), std::uint32_t(0),
+      [&](const tbb::blocked_range<std::uint64_t>& r, std::uint32_t m) {
+        for (std::uint64_t i = r.begin(); i < r.end(); ++i) {
+          const int x = int(i % std::uint64_t(v.dims.x));
+          const std::uint64_t yz = i / std::uint64_t(v.dims.x);
+          const std::uint32_t l = v.label(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));
+          m = l > m ? l : m;
+        }
+        return m;
+      },
+      [](std::uint32_t a, std::uint32_t b) { return a > b ? a : b; });
+}
+
+vec2 value_range(const Volume& vol) {
+  const VolumeView v = vol.view();
+  const std::uint64_t n = vol.desc().voxel_count();
+  return tbb::parallel_reduce(
+      tbb::blocked_range<std::uint64_t>(0, n, 1 << 16), vec2(INFINITY, -INFINITY),
+      [&](const tbb::blocked_range<std::uint64_t>& r, vec2 m) {
+        for (std::uint64_t i = r.begin(); i < r.end(); ++i) {
+          const int x = int(i % std::uint64_t(v.dims.x));
+          const std::uint64_t yz = i / std::uint64_t(v.dims.x);
+          const float f = v.value(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));
+          m.x = f < m.x ? f : m.x;
+          m.y = f > m.y ? f : m.y;
+        }
+        return m;
+      },
+      [](vec2 a, vec2 b) { return vec2(glm::min(a.x, b.x), glm::max(a.y, b.y)); });
+}
+
+}  // namespace sl

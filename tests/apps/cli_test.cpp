@@ -1,0 +1,158 @@
+// The `sparseleap` executable end to end: the default render, and every bad-input case giving one
+// clear line naming the file, a non-zero exit, and no output left looking complete.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+#include "cache/generate.h"
+#include "cache/nrrd.h"
+#include "core/image.h"
+#include "tests/test_util.h"
+
+namespace sl {
+namespace {
+
+namespace fs = std::filesystem;
+
+int count_lines(const std::string& s) {
+  int n = 0;
+  for (char c : s) n += c == '\n';
+  return n;
+}
+
+// Runs a command that must fail: exit code non-zero, exactly one line naming `needle`.
+void expect_one_line_error(const std::string& args, const std::string& needle) {
+  const test::RunResult r = test::run_sparseleap(args);
+  EXPECT_NE(r.exit_code, 0) << args;
+  EXPECT_EQ(count_lines(r.output), 1) << args << "\n" << r.output;
+  EXPECT_NE(r.output.find("sparseleap: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(needle), std::string::npos) << "expected '" << needle << "' in: " << r.output;
+}
+
+TEST(Cli, DefaultRenderShowsTheBuiltInNeurites) {
+  const auto dir = test::scratch_dir();
+  const std::string out = (dir / "frame").string();
+  const test::RunResult r = test::run_sparseleap("render --backend cpu --size 96x80 --out " + out +
+                                                 " --stats-json " + (dir / "stats.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("96x80 cpu"), std::string::npos) << r.output;
+  const Image exr = read_exr(out + ".exr");
+  EXPECT_EQ(exr.width, 96);
+  EXPECT_EQ(exr.height, 80);
+  ASSERT_TRUE(exr.channels.count("samples"));
+  float alpha = 0, samples = 0;
+  for (const vec4& c : exr.rgba) alpha += c.w;
+  for (float s : exr.channels.at("samples")) samples += s;
+  EXPECT_GT(alpha, 5.0f);      // something is visible
+  EXPECT_GT(samples, 1000.0f);
+  const Image png = read_png(out + ".png");
+  EXPECT_EQ(png.width, 96);
+  const std::string stats = test::read_text(dir / "stats.json");
+  EXPECT_NE(stats.find("\"raycast\""), std::string::npos);
+  EXPECT_NE(stats.find("\"samples\""), std::string::npos);
+}
+
+TEST(Cli, GenThenRenderFromNrrd) {
+  const auto dir = test::scratch_dir();
+  const std::string vol = (dir / "blobs.nrrd").string();
+  test::RunResult r = test::run_sparseleap("gen blobs --dims 40x33x27 --out " + vol);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(dir / "blobs_labels.nrrd"));
+  r = test::run_sparseleap("render --backend cpu --volume " + vol + " --labels " +
+                           (dir / "blobs_labels.nrrd").string() + " --mode labels --size 32x32 --out " +
+                           (dir / "b").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::run_sparseleap("info " + vol);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("40 x 33 x 27"), std::string::npos) << r.output;
+}
+
+class CliBadInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir = test::scratch_dir();
+    out = (dir / "out" ).string();
+  }
+  // After a failed run, nothing that looks like output exists.
+  void TearDown() override {
+    EXPECT_FALSE(fs::exists(out + ".png"));
+    EXPECT_FALSE(fs::exists(out + ".exr"));
+  }
+  std::string render(const std::string& args) { return "render --size 16x16 --out " + out + " " + args; }
+  fs::path dir;
+  std::string out;
+};
+
+TEST_F(CliBadInput, MissingVolumeFile) {
+  expect_one_line_error(render("--volume " + (dir / "nope.nrrd").string()), "nope.nrrd");
+}
+
+TEST_F(CliBadInput, TruncatedNrrd) {
+  const auto p = dir / "trunc.nrrd";
+  test::write_text(p, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n" +
+                          std::string(300, 'x'));
+  expect_one_line_error(render("--volume " + p.string()), "trunc.nrrd");
+}
+
+TEST_F(CliBadInput, HeaderSizesDisagreeWithData) {
+  const auto p = dir / "short.nhdr";
+  test::write_text(dir / "short.raw", std::string(999, '\1'));
+  test::write_text(p, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 10 10 10\nencoding: raw\ndata file: short.raw\n");
+  expect_one_line_error(render("--volume " + p.string()), "short");
+}
+
+TEST_F(CliBadInput, UnknownTypeAndEncoding) {
+  test::write_text(dir / "t.nrrd", "NRRD0004\ntype: complex\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n");
+  expect_one_line_error(render("--volume " + (dir / "t.nrrd").string()), "t.nrrd");
+  test::write_text(dir / "e.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nencoding: bzip2\n\n");
+  expect_one_line_error(render("--volume " + (dir / "e.nrrd").string()), "e.nrrd");
+}
+
+TEST_F(CliBadInput, AbsurdDims) {
+  test::write_text(dir / "huge.nrrd",
+                   "NRRD0004\ntype: float\ndimension: 3\nsizes: 4000000 4000000 4000000\nencoding: raw\n\n");
+  expect_one_line_error(render("--volume " + (dir / "huge.nrrd").string()), "huge.nrrd");
+  test::write_text(dir / "zero.nrrd", "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 0 4 4\nencoding: raw\n\n");
+  expect_one_line_error(render("--volume " + (dir / "zero.nrrd").string()), "zero.nrrd");
+}
+
+TEST_F(CliBadInput, NotANrrd) {
+  test::write_text(dir / "junk.nrrd", "hello world\n");
+  expect_one_line_error(render("--volume " + (dir / "junk.nrrd").string()), "junk.nrrd");
+}
+
+TEST_F(CliBadInput, MalformedTransferFunctionJson) {
+  test::write_text(dir / "tf.json", "{\"points\": [ {\"value\": 1, ");
+  expect_one_line_error(render("--tf " + (dir / "tf.json").string()), "tf.json");
+}
+
+TEST_F(CliBadInput, MalformedCameraJson) {
+  test::write_text(dir / "cam.json", "{\"eye\": [1, 2], \"center\": [0, 0, 0]}");
+  expect_one_line_error(render("--camera " + (dir / "cam.json").string()), "cam.json");
+}
+
+TEST_F(CliBadInput, UnwritableOutput) {
+  out = (dir / "no-such-dir" / "frame").string();
+  expect_one_line_error("render --size 16x16 --out " + out, "no-such-dir");
+}
+
+TEST_F(CliBadInput, BadOptions) {
+  expect_one_line_error(render("--size 0x10"), "--size");
+  expect_one_line_error(render("--size big"), "--size");
+  expect_one_line_error(render("--mode xray"), "--mode");
+  expect_one_line_error(render("--backend opencl"), "--backend");
+  expect_one_line_error(render("--step -1"), "--step");
+}
+
+TEST_F(CliBadInput, LabelDimsMismatch) {
+  GeneratedVolume g = generate_volume("blobs", ivec3(12, 10, 8), 1);
+  write_nrrd((dir / "v.nrrd").string(), g.intensity);
+  GeneratedVolume h = generate_volume("blobs", ivec3(12, 10, 9), 1);
+  write_nrrd((dir / "l.nrrd").string(), h.labels);
+  expect_one_line_error(render("--volume " + (dir / "v.nrrd").string() + " --labels " + (dir / "l.nrrd").string()),
+                        "l.nrrd");
+}
+
+}  // namespace
+}  // namespace sl
