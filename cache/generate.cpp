@@ -58,14 +58,15 @@ void voxel_range(float a, float b, float r, int n, int& lo, int& hi) {
   hi = std::min(n - 1, int(std::floor(std::max(a, b) + r - 0.5f)));
 }
 
-// Each item's index goes to every slab its z-extent [zc - r, zc + r] touches, in item order.
+// Each item's index goes to every slab its slices [lo, hi] (from `zrange`, clipped to the volume,
+// empty when lo > hi) touch; bins keep item order, which is the per-voxel fold order.
 template <class ZRange>
 std::vector<std::vector<std::uint32_t>> bin_by_slab(std::size_t count, const ivec3& dims, ZRange zrange) {
   std::vector<std::vector<std::uint32_t>> bins(std::size_t(slab_count(dims)));
   for (std::size_t i = 0; i < count; ++i) {
     int lo, hi;
     zrange(i, lo, hi);
-    for (int s = lo >= 0 ? lo / kSlab : 0; lo <= hi && s <= hi / kSlab; ++s) bins[s].push_back(std::uint32_t(i));
+    for (int s = lo / kSlab; lo <= hi && s <= hi / kSlab; ++s) bins[std::size_t(s)].push_back(std::uint32_t(i));
   }
   return bins;
 }
@@ -97,7 +98,9 @@ bool outside(const vec3& p, const vec3& box, float margin) {
 std::vector<PathNode> walk(Rng& rng, vec3 p, vec3 d, float r0, float length, const vec3& box) {
   const float phase = rng.uniform(0.0f, 2.0f * kPi);
   const float freq = rng.uniform(0.02f, 0.08f);  // radius varies by +-20 % along the tube
-  const auto radius = [&](float s) { return std::clamp(r0 * (1.0f + 0.2f * std::sin(phase + freq * s)), 1.0f, 4.0f); };
+  const auto radius = [&](float s) {
+    return std::clamp(r0 * (1.0f + 0.2f * std::sin(phase + freq * s)), 1.0f, 4.0f);
+  };
   std::vector<PathNode> path{{p, d, radius(0.0f)}};
   vec3 w(0.0f);
   for (float s = kStep; s <= length; s += kStep) {

@@ -5,7 +5,10 @@
 // relative to the header's directory), encodings raw and gzip, types uchar/ushort/uint/float under all
 // their spec spellings, either endianness, `byte skip` / `line skip`, spacing from `spacings` or from
 // the lengths of `space directions` (default 1). Field names and values are matched case-insensitively,
-// comments and key/value pairs (`key:=value`) and fields sparseleap does not use are ignored.
+// comments and key/value pairs (`key:=value`) and fields sparseleap does not use are ignored. A missing
+// `endian` means little. Raw data longer than needed are fine (the rest is ignored); a gzip stream must
+// decompress to exactly the expected size. Multi-file data (`data file: LIST`) and the ascii, hex and
+// bzip2 encodings are rejected with a clear message.
 // Every problem with the input throws InputError(path, reason); nothing else escapes for bad files.
 #pragma once
 

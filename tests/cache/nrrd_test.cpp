@@ -1,7 +1,9 @@
 #include "cache/nrrd.h"
 
 #include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -233,7 +235,8 @@ TEST(Nrrd, ByteSkipAndTrailingBytes) {
 TEST(Nrrd, AbsoluteDataFilePath) {
   const fs::path dir = scratch_dir();
   write_text(dir / "abs.raw", "\x2a");
-  write_text(dir / "abs.nhdr", header("uchar", "1 1 1", "encoding: raw\ndata file: " + (dir / "abs.raw").string() + "\n"));
+  write_text(dir / "abs.nhdr",
+             header("uchar", "1 1 1", "encoding: raw\ndata file: " + (dir / "abs.raw").string() + "\n"));
   EXPECT_EQ(read_nrrd((dir / "abs.nhdr").string()).value(0, 0, 0), 42.0f);
 }
 
@@ -278,6 +281,8 @@ TEST(NrrdErrors, BadHeadersNameTheFileAndTheProblem) {
       {"not_a_field", header("uchar", "2 2 2", "this line has no colon\n") + ok_tail, "not a 'field: value' pair"},
       {"no_blank", header("uchar", "2 2 2", "encoding: raw\n"), "no blank line"},
       {"list", header("uchar", "2 2 2", "encoding: raw\ndata file: LIST\na.raw\n"), "multi-file"},
+      {"list_subdim", header("uchar", "2 2 2", "encoding: raw\ndata file: LIST 2\na.raw\nb.raw\n"), "multi-file"},
+      {"format", header("uchar", "2 2 2", "encoding: raw\ndata file: s%03d.raw 1 2 1\n"), "multi-file"},
       {"skip_gzip", header("uchar", "2 2 2", "byte skip: -1\nencoding: gzip\n\n"), "only allowed with raw"},
   };
   for (const auto& c : cases) {
@@ -313,7 +318,8 @@ TEST(NrrdErrors, MissingOrTruncatedData) {
   EXPECT_EQ(read_nrrd_header(h.string()).dims, ivec3(5, 7, 3));  // the header alone is fine
 
   write_text(dir / "d.raw", std::string(50, '\1'));
-  expect_input_error([&] { read_nrrd(h.string()); }, h.string(), "data truncated: expected 210 bytes of raw data, found 50");
+  expect_input_error([&] { read_nrrd(h.string()); }, h.string(),
+                     "data truncated: expected 210 bytes of raw data, found 50");
 
   const fs::path a = dir / "a.nrrd";
   write_text(a, header("float", "2 2 2", "encoding: raw\n\n") + std::string(31, '\0'));
@@ -362,7 +368,32 @@ TEST(NrrdErrors, BadGzipData) {
   expect_input_error([&] { read_nrrd(p.string()); }, p.string(), "more than the expected 4096 bytes");
 
   write_text(p, replace(head, "sizes: 16 16 16", "sizes: 16 16 17") + zdata);  // too little
-  expect_input_error([&] { read_nrrd(p.string()); }, p.string(), "expected 8704 bytes after decompression, found 8192");
+  expect_input_error([&] { read_nrrd(p.string()); }, p.string(),
+                     "expected 8704 bytes after decompression, found 8192");
+}
+
+// Damaged files (bytes overwritten anywhere, or cut short) are either still readable or rejected with
+// InputError; never another exception, a crash or (under the sanitizers) a memory error.
+RC_GTEST_PROP(NrrdProperty, DamagedFilesFailOnlyWithInputError, ()) {
+  const fs::path p = scratch_dir() / "damaged.nrrd";
+  const auto type = *rc::gen::element(VoxelType::U8, VoxelType::U16, VoxelType::U32, VoxelType::F32);
+  const ivec3 dims(*rc::gen::inRange(1, 9), *rc::gen::inRange(1, 9), *rc::gen::inRange(1, 9));
+  write_nrrd(p.string(), pattern_volume(type, dims), *rc::gen::arbitrary<bool>());
+  std::string bytes = read_text(p);
+  const auto edits = *rc::gen::container<std::vector<std::pair<std::size_t, char>>>(
+      *rc::gen::inRange<std::size_t>(0, 4),
+      rc::gen::pair(rc::gen::oneOf(rc::gen::inRange<std::size_t>(0, bytes.size()),  // header-heavy
+                                   rc::gen::inRange<std::size_t>(0, std::min<std::size_t>(bytes.size(), 220))),
+                    rc::gen::arbitrary<char>()));
+  for (const auto& [at, c] : edits) bytes[at] = c;
+  if (*rc::gen::arbitrary<bool>()) bytes.resize(*rc::gen::inRange<std::size_t>(0, bytes.size()));
+  write_text(p, bytes);
+  try {
+    const Volume v = read_nrrd(p.string());
+    RC_ASSERT(v.desc().byte_size() > 0u);
+  } catch (const InputError& e) {
+    RC_ASSERT(std::string(e.what()).find(p.string()) != std::string::npos);
+  }
 }
 
 // ---- writing failures ----------------------------------------------------------------------------
