@@ -68,6 +68,7 @@ OccupancyGeometry build_occupancy_geometry(const OccupancyTree& tree, std::size_
     }
   }
   g.depth_limit = g.truncated ? cut : OccupancyTree::kMaxLevels;
+  g.tree_revision = tree.revision();
   g.node_box.assign(tree.nodes().size(), OccupancyGeometry::kNoBox);
   for (int d = 0; d <= cut; ++d) {
     for (std::uint32_t n : level[d]) {

@@ -34,6 +34,7 @@ struct OccupancyGeometry {
   // EMPTY), so a budget coarsens the lists but never turns anything non-empty into EMPTY.
   int depth_limit = OccupancyTree::kMaxLevels;
   bool truncated = false;
+  std::uint64_t tree_revision = 0;  // OccupancyTree::revision() it was built from
 };
 
 // Alg. 2. box_budget = 0: unlimited; otherwise at most max(box_budget, 1) boxes, cutting the tree at

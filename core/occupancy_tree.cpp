@@ -31,9 +31,10 @@ OccupancyTree OccupancyTree::from_block_classes(const BlockGrid& grid, std::span
 }
 
 void OccupancyTree::reclassify(std::span<const OccupancyClass> classes) {
-  const std::uint64_t n = reclassify_count_;
+  const std::uint64_t n = reclassify_count_, r = revision_;
   *this = from_block_classes(grid_, classes);
   reclassify_count_ = n + 1;
+  revision_ = r + 1;
 }
 
 void OccupancyTree::reclassify(const BlockClassifier& classify) {
@@ -45,6 +46,7 @@ void OccupancyTree::reclassify(const BlockClassifier& classify) {
   propagate();
   collapse_homogeneous();
   ++reclassify_count_;
+  ++revision_;
 }
 
 std::size_t OccupancyTree::leaf_count() const {
@@ -115,6 +117,7 @@ void OccupancyTree::free_subtree_children(std::uint32_t node) {
 
 std::uint32_t OccupancyTree::refine(std::uint32_t leaf) {
   SL_CHECK(is_leaf(leaf) && nodes_[leaf].depth < levels_);
+  ++revision_;
   const std::uint32_t c = alloc_group();  // may reallocate nodes_: index, do not hold references
   const int h = size_blocks(leaf) / 2;
   for (int k = 0; k < 8; ++k) {
@@ -132,6 +135,7 @@ std::uint32_t OccupancyTree::refine(std::uint32_t leaf) {
 
 void OccupancyTree::set_leaf_class(std::uint32_t leaf, OccupancyClass c) {
   SL_CHECK(is_leaf(leaf) && c != OccupancyClass::Invalid);
+  ++revision_;
   OccupancyNode& n = nodes_[leaf];
   n.cls = c;
   // A leaf counts for all the blocks it covers; the part outside the volume counts EMPTY (DESIGN §5).
@@ -157,9 +161,13 @@ void OccupancyTree::propagate_rec(std::uint32_t node) {
   sum_children(node);
 }
 
-void OccupancyTree::propagate() { propagate_rec(0); }
+void OccupancyTree::propagate() {
+  ++revision_;
+  propagate_rec(0);
+}
 
 void OccupancyTree::propagate_up(std::uint32_t node) {
+  ++revision_;
   for (std::uint32_t i = node; i != kNone; i = nodes_[i].parent) {
     if (!is_leaf(i)) sum_children(i);
   }
@@ -182,6 +190,7 @@ bool OccupancyTree::homogeneous(std::uint32_t node, OccupancyClass& c) const {
 }
 
 void OccupancyTree::make_leaf(std::uint32_t node, OccupancyClass c) {
+  ++revision_;
   free_subtree_children(node);
   set_leaf_class(node, c);
 }

@@ -6,6 +6,7 @@
 // volume count as EMPTY. Nodes live in one flat array; a node's children are 8 contiguous nodes
 // (child i: bit 0 = upper half in x, bit 1 = y, bit 2 = z). Freed child groups are reused, so node
 // indices stay stable while the tree grows, collapses and retires nodes (the out-of-core path).
+// Not thread-safe: edit it from one thread, then build geometry and orders from it.
 #pragma once
 
 #include <cstdint>
@@ -72,6 +73,8 @@ class OccupancyTree {
   // with `classify`, leaving coarse UNKNOWN leaves to regrow on demand; then propagates and collapses.
   void reclassify(const BlockClassifier& classify);
   std::uint64_t reclassify_count() const { return reclassify_count_; }
+  // Bumped by every edit; geometry built from the tree records it (stale geometry is an error).
+  std::uint64_t revision() const { return revision_; }
 
   const BlockGrid& grid() const { return grid_; }
   int levels() const { return levels_; }  // block level = depth levels()
@@ -125,6 +128,7 @@ class OccupancyTree {
   std::vector<OccupancyNode> nodes_;
   std::vector<std::uint32_t> free_groups_;
   std::uint64_t reclassify_count_ = 0;
+  std::uint64_t revision_ = 0;
 };
 
 // Random subdivision like segment_rules.py's generator (for property tests and benchmarks): split with

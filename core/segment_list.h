@@ -59,16 +59,26 @@ SL_HOST_DEVICE inline std::uint32_t absorb_short_gap(RayEvent* ev, std::uint32_t
 
 }  // namespace detail
 
+inline constexpr float kNoEventYet = -3.402823466e+38f;  // initial value of a list's t_seen
+
 // Adds one event to the list tail (events[0..count), count word with the overflow flag), applying the
 // merge rules of Alg. 5 exactly as segment_rules.py's add_event, then the conservative short-gap rule
-// when eps > 0. `capacity` <= kMaxEvents.
-SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, std::uint32_t capacity, float t,
-                                     EventType type, OccupancyClass cls, float eps) {
+// when eps > 0. `capacity` <= kMaxEvents. `t_seen` is builder state per list (start: kNoEventYet):
+// the largest depth seen so far.
+SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, float& t_seen, std::uint32_t capacity,
+                                     float t, EventType type, OccupancyClass cls, float eps) {
   if (count_word & kListOverflow) return;  // overflowed: the tail is already conservative
   std::uint32_t n = count_word;
   // Monotonicity guard (not in the paper): events arrive front to back, so an earlier t can only come
-  // from rounding or from a ray lying in a shared face; treat it as coincident with the tail.
-  if (n > 0u && t < ev[n - 1].t) t = ev[n - 1].t;
+  // from rounding or from a ray lying in a face shared by two sibling boxes (both are hit over the same
+  // interval; the one visited second arrives "early"). Such an event is coincident with the latest
+  // depth seen. Clamping to the tail's t is not enough: rules 2 and 3 pop events, after which the tail
+  // lies earlier than events already merged, and an early event would then open a wrong segment.
+  if (t < t_seen) {
+    t = t_seen;
+  } else {
+    t_seen = t;
+  }
   const RayEvent e = detail::make_event(t, type, cls);
   if (n > 0u && ev[n - 1].t == t) {  // isEqual(eventPrev.depth, depth): the same-depth rules
     RayEvent& prev = ev[n - 1];
@@ -116,15 +126,15 @@ SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, st
 // Alg. 4 for one box and one ray: FRONT -> ENTRY event with the box's class at the entry t (0 when the
 // box holds the ray origin); BACK -> EXIT event with the parent's class at the exit t. Boxes missed
 // (t0 >= t1, grazing included) or entirely behind the origin (t1 <= 0) add nothing.
-SL_HOST_DEVICE inline void add_box_event(RayEvent* ev, std::uint32_t& count_word, std::uint32_t capacity,
-                                         const Ray& ray, const Box3& box, bool front, OccupancyClass cls,
-                                         OccupancyClass parent_cls, float eps) {
+SL_HOST_DEVICE inline void add_box_event(RayEvent* ev, std::uint32_t& count_word, float& t_seen,
+                                         std::uint32_t capacity, const Ray& ray, const Box3& box, bool front,
+                                         OccupancyClass cls, OccupancyClass parent_cls, float eps) {
   const Interval iv = intersect(ray, box);
   if (iv.empty() || !(iv.t1 > 0.0f)) return;
   if (front) {
-    add_event(ev, count_word, capacity, iv.t0 > 0.0f ? iv.t0 : 0.0f, EventType::Entry, cls, eps);
+    add_event(ev, count_word, t_seen, capacity, iv.t0 > 0.0f ? iv.t0 : 0.0f, EventType::Entry, cls, eps);
   } else {
-    add_event(ev, count_word, capacity, iv.t1, EventType::Exit, parent_cls, eps);
+    add_event(ev, count_word, t_seen, capacity, iv.t1, EventType::Exit, parent_cls, eps);
   }
 }
 
@@ -132,10 +142,15 @@ SL_HOST_DEVICE inline void add_box_event(RayEvent* ev, std::uint32_t& count_word
 struct SegmentList {
   RayEvent events[kMaxEvents];
   std::uint32_t count_word = 0;
+  float t_seen = kNoEventYet;
   SL_HOST_DEVICE std::uint32_t count() const { return count_word & kListCountMask; }
   SL_HOST_DEVICE bool overflowed() const { return (count_word & kListOverflow) != 0u; }
   SL_HOST_DEVICE void add(float t, EventType type, OccupancyClass cls, float eps = 0.0f) {
-    add_event(events, count_word, kMaxEvents, t, type, cls, eps);
+    add_event(events, count_word, t_seen, kMaxEvents, t, type, cls, eps);
+  }
+  SL_HOST_DEVICE void add_box(const Ray& ray, const Box3& box, bool front, OccupancyClass cls,
+                              OccupancyClass parent_cls, float eps = 0.0f) {
+    add_box_event(events, count_word, t_seen, kMaxEvents, ray, box, front, cls, parent_cls, eps);
   }
 };
 

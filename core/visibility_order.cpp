@@ -33,7 +33,8 @@ struct OrderBuilder {
 
 std::vector<VisibilityEntry> build_visibility_order(const OccupancyTree& tree, const OccupancyGeometry& geometry,
                                                     const ViewPoint& view) {
-  SL_CHECK(geometry.node_box.size() == tree.nodes().size());
+  // The geometry must come from this tree as it is now (regenerate it after any occupancy change).
+  SL_CHECK(geometry.tree_revision == tree.revision() && geometry.node_box.size() == tree.nodes().size());
   std::vector<VisibilityEntry> out;
   out.reserve(2 * geometry.boxes.size());
   OrderBuilder{tree, geometry, view, out}.visit(tree.root());

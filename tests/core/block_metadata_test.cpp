@@ -1,0 +1,98 @@
+// Culling blocks and their metadata (DESIGN.md §3): the one-voxel dilation, clipping, validation.
+#include "core/block_metadata.h"
+
+#include <gtest/gtest.h>
+
+#include "core/error.h"
+
+namespace sl {
+namespace {
+
+TEST(BlockGrid, SizesAndClippedBoxes) {
+  const BlockGrid g = make_block_grid(ivec3(97, 131, 73), vec3(0.5f, 1.0f, 2.0f), 16);
+  EXPECT_EQ(g.blocks, ivec3(7, 9, 5));
+  EXPECT_EQ(g.block_count(), 315u);
+  const Box3 first = g.block_box(ivec3(0));
+  EXPECT_EQ(first.lo, vec3(0.0f));
+  EXPECT_EQ(first.hi, vec3(8.0f, 16.0f, 32.0f));
+  const Box3 last = g.block_box(ivec3(6, 8, 4));
+  EXPECT_EQ(last.lo, vec3(48.0f, 128.0f, 128.0f));
+  EXPECT_EQ(last.hi, vec3(48.5f, 131.0f, 146.0f));  // clipped to the volume
+  EXPECT_EQ(g.volume_box().hi, vec3(48.5f, 131.0f, 146.0f));
+  for (std::size_t i = 0; i < g.block_count(); ++i) EXPECT_EQ(g.block_index(g.block_coord(i)), i);
+}
+
+TEST(BlockGrid, BlockSizeIsValidated) {
+  for (int b : {4, 8, 16, 32}) EXPECT_NO_THROW(make_block_grid(ivec3(10), vec3(1.0f), b));
+  for (int b : {0, 2, 12, 64, -16}) {
+    try {
+      make_block_grid(ivec3(10), vec3(1.0f), b);
+      FAIL() << "block " << b << " accepted";
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "--block");
+    }
+  }
+}
+
+// 8^3 volume, blocks of 4 (2^3 blocks): values placed to show the one-voxel dilation.
+struct SmallVolume {
+  Volume intensity, labels;
+  SmallVolume() {
+    VolumeDesc d;
+    d.dims = ivec3(8);
+    intensity = Volume(d);
+    d.type = VoxelType::U16;
+    labels = Volume(d);
+    for (int z = 0; z < 8; ++z)
+      for (int y = 0; y < 8; ++y)
+        for (int x = 0; x < 8; ++x) {
+          intensity.set(x, y, z, 10.0f);
+          labels.set(x, y, z, 0.0f);
+        }
+    intensity.set(2, 2, 2, 77.0f);   // inside block 0 only (block 1's dilation starts at voxel 3)
+    intensity.set(3, 3, 3, 50.0f);   // block 0's edge voxel: also in block (1,1,1)'s dilation
+    intensity.set(4, 0, 0, 5.0f);    // block (1,0,0)'s edge voxel: also in block 0's dilation
+    labels.set(1, 1, 1, 7.0f);
+    labels.set(4, 4, 4, 9.0f);       // in block (1,1,1); dilated into block 0
+    labels.set(7, 7, 7, 300.0f);
+  }
+};
+
+TEST(BlockMetadata, MinMaxAndLabelsCoverTheBlockDilatedByOneVoxel) {
+  const SmallVolume v;
+  const BlockGrid g = make_block_grid(ivec3(8), vec3(1.0f), 4);
+  const VolumeView lv = v.labels.view();
+  const BlockMetadata b0 = compute_block_metadata(g, v.intensity.view(), &lv, 0, 0, 0);
+  EXPECT_TRUE(b0.computed);
+  EXPECT_EQ(b0.min, 5.0f);   // voxel (4,0,0) is one voxel outside block 0
+  EXPECT_EQ(b0.max, 77.0f);
+  EXPECT_EQ(b0.labels, (std::vector<std::uint32_t>{0, 7, 9}));
+  const BlockMetadata b7 = compute_block_metadata(g, v.intensity.view(), &lv, 1, 1, 1);
+  EXPECT_EQ(b7.min, 10.0f);
+  EXPECT_EQ(b7.max, 50.0f);  // (3,3,3) is in the dilation, (2,2,2) is not
+  EXPECT_EQ(b7.labels, (std::vector<std::uint32_t>{0, 9, 300}));
+  const BlockMetadata b1 = compute_block_metadata(g, v.intensity.view(), nullptr, 1, 0, 0);
+  EXPECT_FALSE(b1.has_labels);
+  EXPECT_TRUE(b1.labels.empty());
+  EXPECT_EQ(b1.min, 5.0f);
+  EXPECT_EQ(b1.max, 50.0f);  // (3,3,3): x = 3 is block 1's dilation, y, z = 3 are inside
+}
+
+TEST(BlockMetadata, ParallelTableEqualsPerBlockAndIsCounted) {
+  const SmallVolume v;
+  const BlockGrid g = make_block_grid(ivec3(8), vec3(1.0f), 4);
+  const VolumeView lv = v.labels.view();
+  const std::uint64_t before = block_metadata_computations();
+  const BlockMetadataTable t = compute_all_block_metadata(g, v.intensity.view(), &lv);
+  EXPECT_EQ(block_metadata_computations() - before, 8u);
+  for (std::size_t i = 0; i < g.block_count(); ++i) {
+    const ivec3 b = g.block_coord(i);
+    const BlockMetadata m = compute_block_metadata(g, v.intensity.view(), &lv, b.x, b.y, b.z);
+    EXPECT_EQ(t.at(b).min, m.min);
+    EXPECT_EQ(t.at(b).max, m.max);
+    EXPECT_EQ(t.at(b).labels, m.labels);
+  }
+}
+
+}  // namespace
+}  // namespace sl

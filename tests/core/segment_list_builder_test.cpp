@@ -1,0 +1,228 @@
+// The CPU tile builder (paper §7.3): equal to a brute-force per-pixel construction for perspective,
+// orthographic and inside cameras and grazing rays; identical for any thread count; conservative
+// screen rectangles; the bounding-geometry baseline.
+#include "core/segment_list_builder.h"
+
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
+#include <cstring>
+#include <vector>
+
+namespace sl {
+namespace {
+
+using C = OccupancyClass;
+
+struct Fixture {
+  OccupancyTree tree;
+  OccupancyGeometry geometry;
+};
+
+Fixture random_fixture(std::uint64_t seed, int levels, ivec3 dims, vec3 spacing, std::size_t budget = 0) {
+  const BlockGrid grid = make_block_grid(dims, spacing, 4);
+  Fixture f{make_random_occupancy_tree(grid, seed, RandomTreeParams{levels, 0.75, 0.5}), {}};
+  f.geometry = build_occupancy_geometry(f.tree, budget);
+  return f;
+}
+
+// A random tree with a substantial geometry (a random root may stay unsplit).
+Fixture rich_fixture(std::uint64_t seed, ivec3 dims, vec3 spacing, std::size_t budget = 0) {
+  for (;; ++seed) {
+    Fixture f = random_fixture(seed, 4, dims, spacing);
+    if (f.geometry.boxes.size() < 40) continue;
+    if (budget > 0) f.geometry = build_occupancy_geometry(f.tree, budget);
+    return f;
+  }
+}
+
+Camera perspective(vec3 eye, vec3 center, float fov = 40.0f) {
+  Camera c;
+  c.eye = eye;
+  c.center = center;
+  c.up = vec3(0.0f, 1.0f, 0.0f);
+  c.fov_deg = fov;
+  return c;
+}
+
+Camera orthographic(vec3 eye, vec3 center, float height) {
+  Camera c = perspective(eye, center);
+  c.projection = Projection::Orthographic;
+  c.height = height;
+  return c;
+}
+
+// Pixel-for-pixel equality of counts and events.
+void expect_same_lists(const SegmentListBuffer& a, const SegmentListBuffer& b) {
+  ASSERT_EQ(a.width, b.width);
+  ASSERT_EQ(a.height, b.height);
+  std::size_t differing = 0;
+  for (std::size_t i = 0; i < a.counts.size(); ++i) {
+    bool same = a.counts[i] == b.counts[i];
+    for (std::uint32_t k = 0; same && k < a.count(i); ++k) {
+      same = std::memcmp(&a.list(i)[k], &b.list(i)[k], sizeof(RayEvent)) == 0;
+    }
+    differing += same ? 0 : 1;
+  }
+  EXPECT_EQ(differing, 0u);
+}
+
+void check_against_reference(const Fixture& f, const Camera& cam, int w, int h, float eps) {
+  const RayGenerator gen = make_ray_generator(cam, w, h);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  SegmentListBuffer tiles, brute;
+  const SegmentListStats s = build_segment_lists(f.geometry, order, gen, tiles, eps);
+  const SegmentListStats r = build_segment_lists_reference(f.geometry, order, gen, brute, eps);
+  expect_same_lists(tiles, brute);
+  EXPECT_EQ(s.events, r.events);
+  EXPECT_EQ(s.segments, r.segments);
+  EXPECT_EQ(s.max_events, r.max_events);
+  EXPECT_GT(s.lists, 0u);
+}
+
+TEST(SegmentListBuilder, TilesEqualBruteForcePerspective) {
+  const Fixture f = rich_fixture(7, ivec3(64), vec3(1.0f));
+  check_against_reference(f, perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 53, 41, 0.0f);
+  check_against_reference(f, perspective(vec3(-40.0f, 20.0f, -30.0f), vec3(30.0f, 35.0f, 28.0f), 70.0f), 40, 33, 0.5f);
+}
+
+TEST(SegmentListBuilder, TilesEqualBruteForceOrthographic) {
+  const Fixture f = rich_fixture(11, ivec3(61, 64, 45), vec3(1.0f, 0.5f, 2.0f));
+  check_against_reference(f, orthographic(vec3(100.0f, -50.0f, 80.0f), vec3(30.0f, 16.0f, 45.0f), 110.0f), 47, 35, 0.0f);
+}
+
+TEST(SegmentListBuilder, TilesEqualBruteForceCameraInside) {
+  const Fixture f = rich_fixture(5, ivec3(64), vec3(1.0f));
+  check_against_reference(f, perspective(vec3(20.0f, 30.0f, 40.0f), vec3(50.0f, 31.0f, 10.0f), 90.0f), 45, 37, 0.0f);
+  check_against_reference(f, orthographic(vec3(20.0f, 30.0f, 40.0f), vec3(50.0f, 31.0f, 10.0f), 60.0f), 45, 37, 0.0f);
+}
+
+TEST(SegmentListBuilder, TilesEqualBruteForceGrazingFacesAndEdges) {
+  // Volume [0,1]^3 with 16 blocks per axis. Orthographic, axis-aligned, 17x17 pixels of 1/16: ray
+  // origins lie on block planes, so rays run along box faces and edges.
+  const Fixture f = rich_fixture(3, ivec3(64), vec3(1.0f / 64.0f));
+  check_against_reference(f, orthographic(vec3(0.5f, 0.5f, 3.0f), vec3(0.5f, 0.5f, 0.0f), 17.0f / 16.0f), 17, 17, 0.0f);
+  // Perspective with the eye on split planes: the centre row and column of an odd image lie in them.
+  check_against_reference(f, perspective(vec3(0.5f, 0.5f, 2.5f), vec3(0.5f, 0.5f, 0.0f), 35.0f), 33, 33, 0.0f);
+  check_against_reference(f, perspective(vec3(0.25f, 0.5f, 0.5f), vec3(0.25f, 0.5f, -1.0f), 100.0f), 31, 31, 0.0f);
+}
+
+TEST(SegmentListBuilder, BudgetedGeometryAndSmallCapacity) {
+  const Fixture full = rich_fixture(9, ivec3(64), vec3(1.0f));
+  const Fixture f = rich_fixture(9, ivec3(64), vec3(1.0f), full.geometry.boxes.size() / 2);
+  EXPECT_TRUE(f.geometry.truncated);
+  EXPECT_LE(f.geometry.boxes.size(), full.geometry.boxes.size() / 2);
+  check_against_reference(f, perspective(vec3(80.0f, 90.0f, 100.0f), vec3(32.0f)), 40, 40, 0.0f);
+  const Fixture g = rich_fixture(10, ivec3(64), vec3(1.0f));
+  const RayGenerator gen = make_ray_generator(perspective(vec3(80.0f, 90.0f, 100.0f), vec3(32.0f)), 40, 40);
+  const auto order = build_visibility_order(g.tree, g.geometry, view_point(gen));
+  SegmentListBuffer small, brute;
+  small.capacity = brute.capacity = 3;
+  const SegmentListStats s = build_segment_lists(g.geometry, order, gen, small);
+  build_segment_lists_reference(g.geometry, order, gen, brute);
+  expect_same_lists(small, brute);
+  EXPECT_GT(s.overflows, 0u);
+  EXPECT_LE(s.max_events, 3u);
+  for (std::size_t i = 0; i < small.counts.size(); ++i) {
+    if (!small.overflowed(i)) continue;
+    EXPECT_NE(C(small.list(i)[small.count(i) - 1].cls), C::Empty);  // open tail sampled to the exit
+  }
+}
+
+TEST(SegmentListBuilder, AnyThreadCountGivesIdenticalLists) {
+  const Fixture f = rich_fixture(21, ivec3(64, 60, 64), vec3(1.0f));
+  const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 20.0f, 120.0f), vec3(32.0f)), 97, 65);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  SegmentListBuffer one, many;
+  tbb::task_arena(1).execute([&] { build_segment_lists(f.geometry, order, gen, one, 0.3f); });
+  tbb::task_arena(4).execute([&] { build_segment_lists(f.geometry, order, gen, many, 0.3f); });
+  expect_same_lists(one, many);
+}
+
+TEST(SegmentListBuilder, RootOnlyTreeGivesOneUnknownSegmentPerRay) {  // DESIGN.md §7 default list
+  const BlockGrid grid = make_block_grid(ivec3(30, 20, 10), vec3(1.0f), 8);
+  const OccupancyTree t(grid);
+  const OccupancyGeometry g = build_occupancy_geometry(t);
+  const RayGenerator gen = make_ray_generator(perspective(vec3(15.0f, 10.0f, 60.0f), vec3(15.0f, 10.0f, 5.0f), 50.0f), 21, 15);
+  const auto order = build_visibility_order(t, g, view_point(gen));
+  SegmentListBuffer b;
+  const SegmentListStats s = build_segment_lists(g, order, gen, b);
+  EXPECT_EQ(s.segments, s.lists);
+  EXPECT_EQ(s.max_events, 2u);
+  const std::size_t centre = b.pixel(10, 7);
+  ASSERT_EQ(b.count(centre), 2u);
+  EXPECT_EQ(C(b.list(centre)[0].cls), C::Unknown);
+  EXPECT_NEAR(b.list(centre)[0].t, 50.0f, 1e-4f);  // front face z = 10
+  EXPECT_NEAR(b.list(centre)[1].t, 60.0f, 1e-4f);
+  EXPECT_EQ(C(b.list(centre)[1].cls), C::Invalid);
+  EXPECT_EQ(b.count(b.pixel(0, 0)), 0u);  // misses the volume
+}
+
+RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixel, (std::uint64_t seed, bool ortho)) {
+  std::uint64_t s = seed;
+  auto u = [&](float a, float b) {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    return a + (b - a) * float(double(s >> 11) * 0x1.0p-53);
+  };
+  const vec3 lo(u(-2, 2), u(-2, 2), u(-2, 2));
+  const Box3 box{lo, lo + vec3(u(0.01f, 2), u(0.01f, 2), u(0.01f, 2))};
+  const vec3 eye(u(-4, 4), u(-4, 4), u(-4, 4));
+  const Camera cam = ortho ? orthographic(eye, vec3(u(-1, 1), u(-1, 1), u(-1, 1)), u(1, 6))
+                           : perspective(eye, vec3(u(-1, 1), u(-1, 1), u(-1, 1)), u(20, 120));
+  const int w = int(u(8, 40)), h = int(u(8, 40));
+  const RayGenerator gen = make_ray_generator(cam, w, h);
+  const ScreenRect r = conservative_screen_rect(box, gen);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      const Interval iv = intersect(gen.ray(x, y), box);
+      if (iv.empty() || !(iv.t1 > 0.0f)) continue;
+      RC_ASSERT(!r.empty());
+      RC_ASSERT(x >= r.x0 && x <= r.x1 && y >= r.y0 && y <= r.y1);
+    }
+  }
+}
+
+TEST(SegmentListBuilder, BboxListsSpanFirstEntryToLastExitOfNonEmptyBoxes) {
+  Fixture f;
+  std::vector<OccupancyBox> leaves;
+  for (std::uint64_t seed = 4;; ++seed) {  // a tree with both empty and non-empty leaves
+    f = random_fixture(seed, 3, ivec3(32), vec3(1.0f));
+    leaves = leaf_boxes(f.tree);
+    const auto empty = std::count_if(leaves.begin(), leaves.end(), [](const auto& l) { return l.cls == C::Empty; });
+    if (empty > 0 && empty < std::ptrdiff_t(leaves.size()) - 2) break;
+  }
+  const RayGenerator gen = make_ray_generator(perspective(vec3(50.0f, 40.0f, 70.0f), vec3(16.0f)), 31, 29);
+  SegmentListBuffer b;
+  const SegmentListStats s = build_bbox_lists(leaves, gen, b);
+  EXPECT_EQ(b.capacity, 2u);
+  EXPECT_GT(s.lists, 0u);
+  for (int y = 0; y < gen.height; ++y) {
+    for (int x = 0; x < gen.width; ++x) {
+      const Ray ray = gen.ray(x, y);
+      float first = HUGE_VALF, last = -HUGE_VALF;
+      bool unknown = false;
+      for (const OccupancyBox& l : leaves) {
+        const Interval iv = intersect(ray, l.box);
+        if (l.cls == C::Empty || iv.empty() || !(iv.t1 > 0.0f)) continue;
+        first = std::min(first, std::max(iv.t0, 0.0f));
+        last = std::max(last, iv.t1);
+        unknown = unknown || l.cls == C::Unknown;
+      }
+      const std::size_t p = b.pixel(x, y);
+      if (!(last > first)) {
+        EXPECT_EQ(b.count(p), 0u);
+        continue;
+      }
+      ASSERT_EQ(b.count(p), 2u);
+      EXPECT_EQ(b.list(p)[0].t, first);
+      EXPECT_EQ(b.list(p)[1].t, last);
+      EXPECT_EQ(C(b.list(p)[0].cls), unknown ? C::Unknown : C::NonEmpty);
+      EXPECT_EQ(C(b.list(p)[1].cls), C::Invalid);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace sl
