@@ -3,14 +3,52 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <cstring>
+#include <optional>
 
+#include "core/block_metadata.h"
+#include "core/culling.h"
 #include "core/error.h"
+#include "core/occupancy_geometry.h"
+#include "core/occupancy_tree.h"
+#include "core/octree_skip.h"
+#include "core/overlay.h"
+#include "core/segment_list_builder.h"
+#include "core/visibility_order.h"
 #include "core/parallel.h"
 #include "core/raycast.h"
 
 namespace sl {
 
-struct CpuRenderer::State {};
+// What persists between frames: metadata (computed once per volume and block size, never for a
+// transfer-function or label change), the occupancy structures (rebuilt when the block classes
+// change), and the segment lists (reused while the view and the geometry are unchanged; DESIGN.md §7).
+// What the per-pixel loop needs to know about the skipping structures of this frame.
+struct SkipInputs {
+  SkipMethod method = SkipMethod::None;
+  SegmentListView lists;  // sparseleap, bbox
+  SkipOctreeView octree;  // octree
+};
+
+struct CpuRenderer::State {
+  const Volume* volume = nullptr;
+  const Volume* labels = nullptr;
+  int block = 0;
+  std::optional<BlockMetadataTable> metadata;
+  std::vector<OccupancyClass> classes;
+  std::optional<OccupancyTree> tree;
+  std::optional<OccupancyGeometry> geometry;
+  std::optional<SkipOctree> octree;
+  std::vector<OccupancyBox> nonempty_leaves;  // bbox baseline
+  SegmentListBuffer lists;
+  // Key of the lists in `lists`: view, geometry, method and gap threshold they were built for.
+  bool lists_valid = false;
+  RayGenerator lists_gen;
+  std::uint64_t lists_revision = 0;
+  SkipMethod lists_method = SkipMethod::None;
+  float lists_eps = 0.0f;
+  SegmentListStats list_stats;
+};
 
 CpuRenderer::CpuRenderer() : state_(std::make_unique<State>()) {}
 CpuRenderer::~CpuRenderer() = default;
@@ -64,81 +102,248 @@ DenseGrid<T> grid_of(const Volume* v) {
 }
 
 struct Counters {
-  std::atomic<std::uint64_t> samples{0}, useful{0}, rays{0};
+  std::atomic<std::uint64_t> samples{0}, useful{0}, rays{0}, misses{0}, dc_sum{0};
+  std::atomic<std::uint32_t> dc_max{0};
+  std::atomic<std::uint32_t> dc_min{0xFFFFFFFFu};
 };
 
-// Per-pixel integration for the method at hand; `spans(x, y, ray, t_entry, t_exit, k_end, caster, acc)`
-// calls caster.march on the index ranges it does not skip.
-template <class VT, class LT, class Spans>
-void cast_image(const RayCaster<VT, LT>& caster, const RayGenerator& gen, const Box3& vbox, Image& img,
-                Counters& counters, Spans&& spans) {
+template <class T>
+void atomic_max(std::atomic<T>& a, T v) {
+  T cur = a.load(std::memory_order_relaxed);
+  while (v > cur && !a.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
+  }
+}
+template <class T>
+void atomic_min(std::atomic<T>& a, T v) {
+  T cur = a.load(std::memory_order_relaxed);
+  while (v < cur && !a.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
+  }
+}
+
+// One pixel: walks the method's spans on the global sample grid (Alg. 6 for segment lists; kd-restart
+// for the octree). Returns the depth complexity: segments of the list, or octree nodes visited.
+template <class VT, class LT>
+std::uint32_t cast_pixel(const RayCaster<VT, LT>& caster, const SkipInputs& skip, std::size_t pixel,
+                         const Ray& ray, float t_entry, float t_exit, RayAccum& acc, std::uint32_t& misses) {
+  const int k_end = sample_index(t_exit, t_entry, caster.p.inv_dt);
+  switch (skip.method) {
+    case SkipMethod::None:
+      caster.march(ray, t_entry, 0, k_end, acc);
+      return 0;
+    case SkipMethod::Octree: {
+      std::uint32_t nodes = 0;
+      for (float t = t_entry; t < t_exit && !acc.done;) {
+        const KdRestartStep st = skip.octree.step(ray, t, t_exit);
+        nodes += st.nodes_visited;
+        if (st.cls != OccupancyClass::Empty) {
+          caster.march_span(ray, t_entry, sample_index(st.t0, t_entry, caster.p.inv_dt),
+                            sample_index(st.t1, t_entry, caster.p.inv_dt), k_end, acc);
+        }
+        t = st.t1;
+      }
+      return nodes;
+    }
+    case SkipMethod::BBox:
+    case SkipMethod::SparseLeap: {
+      const std::uint32_t n = skip.lists.count(pixel);
+      const RayEvent* ev = skip.lists.list(pixel);
+      const std::uint32_t segments = segment_count(ev, n);
+      for (std::uint32_t k = 0; k < segments && !acc.done; ++k) {
+        const RaySegment seg = list_segment(ev, n, k, t_exit);
+        if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
+        caster.march_span(ray, t_entry, sample_index(seg.t0, t_entry, caster.p.inv_dt),
+                          sample_index(seg.t1, t_entry, caster.p.inv_dt), k_end, acc);
+        if (seg.cls == OccupancyClass::Unknown) ++misses;  // occupancy miss (resolved out of core)
+      }
+      return segments;
+    }
+  }
+  return 0;
+}
+
+template <class VT, class LT>
+void render_typed(const Scene& scene, const RenderSettings& s, const CastParams& params, const SkipInputs& skip,
+                  Frame& frame) {
+  RayCaster<VT, LT> caster{params, grid_of<VT>(scene.volume), grid_of<LT>(scene.labels)};
+  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
+  const Box3 vbox{vec3(0.0f), scene.volume->desc().extent()};
+  Image& img = frame.image;
   auto& samples_ch = img.channel("samples");
+  auto& dc_ch = img.channel("depth_complexity");
   float* depth_ch = nullptr;  // iso: hit distance t per pixel, -1 where the ray finds no surface
-  if (caster.p.mode == RenderMode::Iso) {
+  if (params.mode == RenderMode::Iso) {
     auto& d = img.channel("depth");
     std::fill(d.begin(), d.end(), -1.0f);
     depth_ch = d.data();
   }
+  Counters counters;
+  Timer timer;
   parallel_for_tiles(img.width, img.height, [&](int x0, int y0, int x1, int y1) {
-    std::uint64_t samples = 0, useful = 0, rays = 0;
+    std::uint64_t samples = 0, useful = 0, rays = 0, dc_sum = 0;
+    std::uint32_t misses = 0, dc_max = 0, dc_min = 0xFFFFFFFFu;
     for (int y = y0; y < y1; ++y) {
       for (int x = x0; x < x1; ++x) {
         const Ray ray = gen.ray(x, y);
         const Interval iv = intersect(ray, vbox);
         const float t_entry = iv.t0 > 0.0f ? iv.t0 : 0.0f;
         if (!(iv.t1 > t_entry)) continue;
-        const int k_end = sample_index(iv.t1, t_entry, caster.p.inv_dt);
-        RayAccum acc;
-        spans(x, y, ray, t_entry, iv.t1, k_end, acc);
         const std::size_t i = std::size_t(y) * img.width + x;
+        RayAccum acc;
+        const std::uint32_t dc = cast_pixel(caster, skip, i, ray, t_entry, iv.t1, acc, misses);
         img.rgba[i] = caster.resolve(acc);
         samples_ch[i] = float(acc.samples);
+        dc_ch[i] = float(dc);
         if (depth_ch) depth_ch[i] = acc.hit_t;
         samples += acc.samples;
         useful += acc.useful_samples;
+        dc_sum += dc;
+        dc_max = std::max(dc_max, dc);
+        dc_min = std::min(dc_min, dc);
         ++rays;
       }
     }
     counters.samples += samples;
     counters.useful += useful;
     counters.rays += rays;
+    counters.misses += misses;
+    counters.dc_sum += dc_sum;
+    atomic_max(counters.dc_max, dc_max);
+    atomic_min(counters.dc_min, dc_min);
   });
-}
-
-template <class VT, class LT>
-void render_typed(const Scene& scene, const RenderSettings& s, const CastParams& params, Frame& frame) {
-  RayCaster<VT, LT> caster{params, grid_of<VT>(scene.volume), grid_of<LT>(scene.labels)};
-  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
-  const Box3 vbox{vec3(0.0f), scene.volume->desc().extent()};
-  Counters counters;
-  Timer t;
-  switch (s.method) {
-    case SkipMethod::None:
-    default:
-      cast_image(caster, gen, vbox, frame.image, counters,
-                 [&](int, int, const Ray& ray, float t_entry, float, int k_end, RayAccum& acc) {
-                   caster.march(ray, t_entry, 0, k_end, acc);
-                 });
-      break;
+  Stats& st = frame.stats;
+  st.time_ms.raycast = timer.ms();
+  st.samples = counters.samples;
+  st.useful_samples = counters.useful;
+  st.rays = counters.rays;
+  st.occupancy_misses = counters.misses;
+  if (skip.method != SkipMethod::None && st.rays > 0) {
+    st.depth_complexity_avg = double(counters.dc_sum) / double(st.rays);
+    st.depth_complexity_max = counters.dc_max;
+    st.depth_complexity_min = counters.dc_min.load() == 0xFFFFFFFFu ? 0u : counters.dc_min.load();
   }
-  frame.stats.time_ms.raycast = t.ms();
-  frame.stats.samples = counters.samples;
-  frame.stats.useful_samples = counters.useful;
-  frame.stats.rays = counters.rays;
 }
 
 template <class VT>
-void render_labels_typed(const Scene& scene, const RenderSettings& s, const CastParams& p, Frame& f) {
-  if (!scene.labels) return render_typed<VT, std::uint8_t>(scene, s, p, f);
+void render_labels_typed(const Scene& scene, const RenderSettings& s, const CastParams& p, const SkipInputs& k,
+                         Frame& f) {
+  if (!scene.labels) return render_typed<VT, std::uint8_t>(scene, s, p, k, f);
   switch (scene.labels->type()) {
-    case VoxelType::U8: return render_typed<VT, std::uint8_t>(scene, s, p, f);
-    case VoxelType::U16: return render_typed<VT, std::uint16_t>(scene, s, p, f);
-    case VoxelType::U32: return render_typed<VT, std::uint32_t>(scene, s, p, f);
+    case VoxelType::U8: return render_typed<VT, std::uint8_t>(scene, s, p, k, f);
+    case VoxelType::U16: return render_typed<VT, std::uint16_t>(scene, s, p, k, f);
+    case VoxelType::U32: return render_typed<VT, std::uint32_t>(scene, s, p, k, f);
     case VoxelType::F32: throw InputError("--labels", "label volume must be of an integer type");
   }
 }
 
+bool same_view(const RayGenerator& a, const RayGenerator& b) {
+  return std::memcmp(&a, &b, sizeof(RayGenerator)) == 0;
+}
+
 }  // namespace
+
+// Builds (or reuses) what the method needs: metadata → block classes → occupancy tree → geometry →
+// visibility order → segment lists (SparseLeap), the min/max octree (octree) or the first-entry /
+// last-exit lists (bbox). Each stage is timed into the frame's stats.
+SkipInputs CpuRenderer::prepare_skipping(const Scene& scene, const RenderSettings& s, const CastParams& p,
+                                         Stats& st) {
+  SkipInputs in;
+  in.method = s.method;
+  if (s.method == SkipMethod::None) return in;
+  State& S = *state_;
+  Timer t;
+  if (!S.metadata || S.volume != scene.volume || S.labels != scene.labels || S.block != s.block) {
+    S = State{};
+    S.volume = scene.volume;
+    S.labels = scene.labels;
+    S.block = s.block;
+    const BlockGrid grid = make_block_grid(scene.volume->dims(), scene.volume->desc().spacing, s.block);
+    VolumeView lv;
+    if (scene.labels) lv = scene.labels->view();
+    S.metadata = compute_all_block_metadata(grid, scene.volume->view(), scene.labels ? &lv : nullptr);
+  }
+  st.time_ms.metadata = t.ms();
+  st.metadata_blocks = S.metadata->blocks.size();
+
+  t = Timer();
+  CullParams cull;
+  cull.mode = s.mode;
+  cull.tf = scene.tf;
+  cull.iso = s.iso;
+  cull.enabled = (p.label_mask || s.mode == RenderMode::Labels) ? active_labels_ : nullptr;
+  std::vector<OccupancyClass> classes = classify_blocks(*S.metadata, cull);
+  if (!S.tree || classes != S.classes) {
+    // A transfer-function or label change lands here: re-cull from cached metadata (DESIGN.md §5).
+    S.classes = std::move(classes);
+    if (S.tree) {
+      S.tree->reclassify(S.classes);
+    } else {
+      S.tree = OccupancyTree::from_block_classes(S.metadata->grid, S.classes);
+    }
+    S.geometry.reset();
+    S.octree.reset();
+    S.nonempty_leaves.clear();
+    S.lists_valid = false;
+  }
+  st.time_ms.tree = t.ms();
+  st.tree_nodes = S.tree->node_count();
+
+  t = Timer();
+  if (!S.geometry) S.geometry = build_occupancy_geometry(*S.tree);
+  st.boxes = S.geometry->boxes.size();
+  st.time_ms.geometry = t.ms();
+
+  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
+  const float eps = s.gap_eps * p.dt;
+  switch (s.method) {
+    case SkipMethod::Octree: {
+      t = Timer();
+      if (!S.octree) S.octree.emplace(S.metadata->grid, S.classes);
+      st.time_ms.tree += t.ms();
+      in.octree = S.octree->view();
+      break;
+    }
+    case SkipMethod::BBox:
+    case SkipMethod::SparseLeap: {
+      const bool reuse = S.lists_valid && S.lists_method == s.method && S.lists_eps == eps &&
+                         S.lists_revision == S.tree->revision() && same_view(S.lists_gen, gen);
+      if (!reuse) {
+        if (s.method == SkipMethod::SparseLeap) {
+          t = Timer();
+          const std::vector<VisibilityEntry> order = build_visibility_order(*S.tree, *S.geometry, view_point(gen));
+          st.time_ms.order = t.ms();
+          t = Timer();
+          S.lists.reset(s.width, s.height, kListCapacity);
+          S.list_stats = build_segment_lists(*S.geometry, order, gen, S.lists, eps);
+          st.time_ms.lists = t.ms();
+        } else {
+          t = Timer();
+          if (S.nonempty_leaves.empty()) {
+            for (const OccupancyBox& b : leaf_boxes(*S.tree)) {
+              if (b.cls != OccupancyClass::Empty) S.nonempty_leaves.push_back(b);
+            }
+          }
+          S.list_stats = build_bbox_lists(S.nonempty_leaves, gen, S.lists);
+          st.time_ms.lists = t.ms();
+        }
+        S.lists_valid = true;
+        S.lists_method = s.method;
+        S.lists_eps = eps;
+        S.lists_revision = S.tree->revision();
+        S.lists_gen = gen;
+      }
+      st.events = S.list_stats.events;
+      st.list_overflows = S.list_stats.overflows;
+      in.lists = S.lists.view();
+      break;
+    }
+    case SkipMethod::None: break;
+  }
+  return in;
+}
+
+const OccupancyGeometry* CpuRenderer::geometry() const {
+  return state_->geometry ? &*state_->geometry : nullptr;
+}
 
 Frame CpuRenderer::render(const Scene& scene, const RenderSettings& s) {
   validate(scene, s);
@@ -152,12 +357,23 @@ Frame CpuRenderer::render(const Scene& scene, const RenderSettings& s) {
 
   LabelSet label_storage;
   const CastParams p = make_cast_params(scene, s, label_storage);
+  active_labels_ = scene.enabled ? scene.enabled : (s.mode == RenderMode::Labels ? &label_storage : nullptr);
+  const SkipInputs skip = prepare_skipping(scene, s, p, frame.stats);
+
   switch (scene.volume->type()) {
-    case VoxelType::U8: render_labels_typed<std::uint8_t>(scene, s, p, frame); break;
-    case VoxelType::U16: render_labels_typed<std::uint16_t>(scene, s, p, frame); break;
-    case VoxelType::U32: render_labels_typed<std::uint32_t>(scene, s, p, frame); break;
-    case VoxelType::F32: render_labels_typed<float>(scene, s, p, frame); break;
+    case VoxelType::U8: render_labels_typed<std::uint8_t>(scene, s, p, skip, frame); break;
+    case VoxelType::U16: render_labels_typed<std::uint16_t>(scene, s, p, skip, frame); break;
+    case VoxelType::U32: render_labels_typed<std::uint32_t>(scene, s, p, skip, frame); break;
+    case VoxelType::F32: render_labels_typed<float>(scene, s, p, skip, frame); break;
   }
+  if (s.depth_complexity_view) {
+    draw_depth_complexity(frame.image, float(frame.stats.depth_complexity_min),
+                          float(frame.stats.depth_complexity_avg), float(frame.stats.depth_complexity_max));
+  }
+  if (s.boxes_overlay && state_->geometry) {
+    draw_boxes(frame.image, state_->geometry->boxes, make_ray_generator(scene.camera, s.width, s.height));
+  }
+  active_labels_ = nullptr;
   frame.stats.time_ms.total = total.ms();
   return frame;
 }

@@ -48,15 +48,30 @@ void validate(const Scene& scene, const RenderSettings& settings);
 // labels mode has none given (then all labels are enabled); it must outlive the returned params.
 CastParams make_cast_params(const Scene& scene, const RenderSettings& settings, LabelSet& label_storage);
 
+struct OccupancyGeometry;
+struct SkipInputs;
+
 class CpuRenderer {
  public:
+  // Events per pixel list. Longer lists are made conservative (their tail is sampled) and counted in
+  // Stats::list_overflows; neurite scenes stay well below (about 30 events at most).
+  static constexpr std::uint32_t kListCapacity = 32;
+
   CpuRenderer();
   ~CpuRenderer();
+  // Renders a frame. Metadata, occupancy structures and segment lists persist between calls and are
+  // rebuilt only when their inputs change (a new volume or block size; new block classes after a
+  // transfer-function or label change; a new view).
   Frame render(const Scene& scene, const RenderSettings& settings);
+  // The occupancy geometry of the last frame (null before a skipping method has run).
+  const OccupancyGeometry* geometry() const;
 
  private:
   struct State;
+  SkipInputs prepare_skipping(const Scene& scene, const RenderSettings& s, const CastParams& p, Stats& st);
+
   std::unique_ptr<State> state_;
+  const LabelSet* active_labels_ = nullptr;  // enabled set of the frame being rendered
 };
 
 }  // namespace sl

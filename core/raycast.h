@@ -140,6 +140,15 @@ struct RayCaster {
     return true;
   }
 
+  // Samples the span [k0, k1) of a skipping method. Iso mode also takes the sample at k1 (when
+  // k1 < k_end): a crossing between a span's last sample and the first skipped one is found exactly as
+  // a method without skipping finds it (march() already primes with the sample before k0).
+  SL_HOST_DEVICE bool march_span(const Ray& ray, float t_entry, int k0, int k1, int k_end, RayAccum& acc) const {
+    if (k1 > k_end) k1 = k_end;
+    if (p.mode == RenderMode::Iso && k1 < k_end && k0 < k1) ++k1;
+    return march(ray, t_entry, k0, k1, acc);
+  }
+
   // Refines a bracketed crossing by bisection, then shades it; false if its label is masked out.
   SL_HOST_DEVICE bool iso_hit(const Ray& ray, float ta, float va, float tb, float vb, RayAccum& acc) const {
     const bool a_below = va < p.iso;

@@ -25,7 +25,7 @@ std::string stats_to_json(const Stats& s) {
   j["list_overflows"] = s.list_overflows;
   j["metadata_blocks"] = s.metadata_blocks;
   j["tree"] = {{"nodes", s.tree_nodes}};
-  j["depth_complexity"] = {{"avg", s.depth_complexity_avg}, {"max", s.depth_complexity_max}};
+  j["depth_complexity"] = {{"avg", s.depth_complexity_avg}, {"max", s.depth_complexity_max}, {"min", s.depth_complexity_min}};
   return j.dump(2);
 }
 

@@ -29,6 +29,7 @@ struct Stats {
   std::uint64_t tree_nodes = 0;
   double depth_complexity_avg = 0;      // segments (SparseLeap) / nodes (octree) per ray
   std::uint32_t depth_complexity_max = 0;
+  std::uint32_t depth_complexity_min = 0;
 };
 
 std::string stats_to_json(const Stats& s);

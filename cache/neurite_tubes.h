@@ -1,0 +1,121 @@
+// Deterministic neurite geometry for the procedural source (procedural_neurites.h), defined locally
+// so that any brick at any level can be synthesised from its coordinates alone:
+//  - Local tubes: space is cut into cells of kCell³ voxels; a cell's tubes (smooth random walks with
+//    branches, as in generate_volume's neurites) come from a hash of (seed, cell) and are steered
+//    back so that they never reach further than kMargin outside the cell. A region needs only the
+//    cells within kMargin of it.
+//  - Fibres: long axon-like tubes crossing the whole volume along x, y or z (generate_volume's
+//    "crossing tubes"), seeded on a kFibreGrid² lattice over the perpendicular plane; a fibre wanders
+//    at most kFibreWander from its lattice seed, so a region needs only nearby lattice cells. Their
+//    label is one id along the whole length.
+// Coordinates are level-0 voxel units; voxel i's centre is at i + 0.5 (DESIGN.md §8).
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "core/math.h"
+
+namespace sl::neurites {
+
+inline constexpr int kCell = 128;             // local-tube cell edge (voxels)
+inline constexpr float kMargin = 24.0f;       // tubes' influence stays within the cell grown by this
+inline constexpr float kStep = 1.5f;          // path sampling step: capsules this long
+inline constexpr float kHalfWidth = 0.75f;    // intensity profile falls 1 -> 0 across +-0.75 of the surface
+inline constexpr float kMaxRadius = 4.0f;
+inline constexpr float kReach = kMaxRadius + kHalfWidth;  // furthest a tube affects from its axis
+inline constexpr int kFibreGrid = 128;        // fibre lattice spacing (voxels)
+inline constexpr float kFibreWander = 30.0f;  // max transverse excursion of a fibre from its seed
+inline constexpr float kPi = 3.14159265358979f;
+// Integral of the smoothstep profile over a tube's cross-section: pi r^2 plus a halo term
+// 2 pi * 0.1 * kHalfWidth^2 (the profile is antisymmetric about the surface, so only the first
+// moment survives). Tube mass per unit length = brightness * cross_section(r).
+inline float cross_section(float r) { return kPi * r * r + 0.2f * kPi * kHalfWidth * kHalfWidth; }
+
+struct Params {
+  ivec3 dims{0};
+  std::uint32_t seed = 1;
+};
+
+// SplitMix64 (as in generate.cpp): fully specified, so a seed means the same volume everywhere.
+inline std::uint64_t mix64(std::uint64_t z) {
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
+  return z ^ (z >> 31);
+}
+
+class Rng {
+ public:
+  explicit Rng(std::uint64_t key) : s_(mix64(key)) {}
+  std::uint64_t next() { return mix64(s_ += 0x9E3779B97F4A7C15ull); }
+  float uniform() { return float(next() >> 40) * 0x1p-24f; }  // [0, 1)
+  float uniform(float a, float b) { return a + (b - a) * uniform(); }
+  vec3 in_ball();
+  vec3 unit();
+
+ private:
+  std::uint64_t s_;
+};
+
+struct PathNode {
+  vec3 p, d;
+  float r;
+};
+
+// Paths flattened into one node array: path k is nodes[begin, end).
+struct PathSet {
+  struct Path {
+    std::uint32_t begin, end;
+    float brightness;
+    std::uint32_t id;
+  };
+  std::vector<PathNode> nodes;
+  std::vector<Path> paths;
+  void clear() {
+    nodes.clear();
+    paths.clear();
+  }
+};
+
+ivec3 cell_count(const Params& p);
+// Appends the local tubes (main paths and branches) of `cell`.
+void cell_paths(const Params& p, ivec3 cell, PathSet& out);
+
+// What a cell holds, from the per-tube hash alone (no path walking): total mass (intensity summed
+// over voxels, overlaps ignored) and the tube with the largest labelled (core) volume. Costs a few
+// hashes per tube, so coarse levels covering millions of cells stay cheap.
+struct CellSummary {
+  float mass = 0.0f;
+  float top_core = 0.0f;
+  std::uint32_t top_id = 0;
+};
+CellSummary cell_summary(const Params& p, ivec3 cell);
+
+// Per tube of a cell: mass, labelled volume and id as in cell_summary, and the straight segment a-b
+// standing in for its path (from its start along its initial direction) — for levels whose voxels
+// are smaller than a cell but too many to walk every path.
+struct TubeMass {
+  vec3 a, b;
+  float mass, core;
+  std::uint32_t id;
+};
+void cell_tube_masses(const Params& p, ivec3 cell, std::vector<TubeMass>& out);
+
+struct Fibre {
+  int axis;  // runs along this axis; its position across it wanders around (u0, v0)
+  float u0, v0;
+  float amp[4], omega[4], phase[4];  // two sinusoids per transverse axis
+  float r0, r_phase, r_omega;
+  float brightness;
+  float line_mass;  // mean mass per unit length along the axis (for coarse levels)
+  float line_core;  // mean labelled volume per unit length
+  std::uint32_t id;
+};
+// Fibres whose tubes can reach the level-0 box [lo, hi] (voxel-centre coordinates).
+void fibres_near(const Params& p, vec3 lo, vec3 hi, std::vector<Fibre>& out);
+// Centre, radius and derivative of the centre along t (in .d, not normalised) of a fibre at axis
+// coordinate t; fibre_centre is the centre alone, for coarse levels.
+PathNode fibre_at(const Fibre& f, float t);
+vec3 fibre_centre(const Fibre& f, float t);
+
+}  // namespace sl::neurites

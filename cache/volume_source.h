@@ -1,0 +1,81 @@
+// Volume sources (DESIGN.md §3): whatever answers "give me brick (level, bx, by, bz)". Host side; the
+// brick loader calls read_brick from its worker threads. Implementations: MemoryVolumeSource (a
+// volume in memory, e.g. a loaded NRRD) here, ProceduralNeuritesSource in procedural_neurites.h.
+#pragma once
+
+#include <cstddef>
+#include <memory>
+#include <span>
+#include <string>
+#include <vector>
+
+#include "cache/brick.h"
+#include "core/volume.h"
+
+namespace sl {
+
+class VolumeSource {
+ public:
+  virtual ~VolumeSource() = default;
+
+  // Level-0 dims, spacing and intensity voxel type.
+  virtual const VolumeDesc& desc() const = 0;
+  virtual bool has_labels() const = 0;
+  virtual VoxelType label_type() const = 0;  // meaningful only when has_labels()
+  // What errors name as their file: the path, or the procedural spec.
+  virtual const std::string& name() const = 0;
+
+  // Fills brick `id` of `layout` (which must describe desc()): (B + 2)³ voxels, x fastest, apron
+  // included, apron voxels outside the level clamped to the edge (brick.h). out_intensity holds
+  // stored_voxels() * voxel_size(desc().type) bytes; out_labels the same for label_type(), or is
+  // empty to skip labels. Thread-safe. Throws InputError(name(), reason) on I/O or data problems.
+  virtual void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                          std::span<std::byte> out_labels) const = 0;
+
+ protected:
+  // Shared argument checks for implementations (internal errors: SL_CHECK).
+  void check_request(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                     std::span<std::byte> out_labels) const;
+};
+
+// A volume (plus optional aligned label volume) held in memory. The pyramid of 2x reductions
+// (pyramid.h) is computed once, in parallel, at construction, down to 1³ so that any brick size
+// works: it costs about 1/7 of the volume's memory again (1/8 + 1/64 + ...), and in exchange every
+// read_brick is a plain clamped copy — cheap, trivially thread-safe, and coarse bricks never rescan
+// the full-resolution data (computing level l lazily would reread 8^l voxels per voxel, per brick).
+class MemoryVolumeSource final : public VolumeSource {
+ public:
+  // labels may be null. Throws InputError(name, ...) when labels are not an integer type or their
+  // dims differ from the intensity volume's.
+  MemoryVolumeSource(std::shared_ptr<const Volume> intensity, std::shared_ptr<const Volume> labels = nullptr,
+                     std::string name = "volume");
+
+  const VolumeDesc& desc() const override { return intensity_->desc(); }
+  bool has_labels() const override { return labels_ != nullptr; }
+  VoxelType label_type() const override { return labels_ ? labels_->type() : VoxelType::U32; }
+  const std::string& name() const override { return name_; }
+  void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                  std::span<std::byte> out_labels) const override;
+
+  // Level-l data (level 0 is the input), for tests and metadata; levels() reaches 1³.
+  int levels() const { return int(levels_.size()); }
+  const Volume& level(int l) const { return l == 0 ? *intensity_ : levels_[std::size_t(l)]; }
+  const Volume* label_level(int l) const {
+    return !labels_ ? nullptr : l == 0 ? labels_.get() : &label_levels_[std::size_t(l)];
+  }
+  // Bytes held by levels >= 1 (the pyramid's extra cost).
+  std::size_t pyramid_bytes() const;
+
+ private:
+  std::shared_ptr<const Volume> intensity_, labels_;
+  std::string name_;
+  std::vector<Volume> levels_, label_levels_;  // index 0 unused (the inputs are level 0)
+};
+
+// "procedural:neurites:XxYxZ[:seed]" -> a ProceduralNeuritesSource. Throws InputError(spec, reason)
+// for anything else or bad numbers.
+std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec);
+// True when `spec` names a procedural source (starts with "procedural:"), not a file.
+bool is_procedural_spec(const std::string& spec);
+
+}  // namespace sl
