@@ -19,6 +19,7 @@ class FrameRenderer {
   explicit FrameRenderer(Backend b) : backend_(b) {}
   Frame render(const Scene& scene, const RenderSettings& settings);
   Backend backend() const { return backend_; }
+  void invalidate_lists() { cpu_.invalidate_lists(); }
 
  private:
   Backend backend_;

@@ -11,5 +11,6 @@ using Runner = std::function<int()>;
 Runner add_render_command(CLI::App& app);
 Runner add_gen_command(CLI::App& app);
 Runner add_info_command(CLI::App& app);
+Runner add_bench_command(CLI::App& app);
 
 }  // namespace sl::app

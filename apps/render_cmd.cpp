@@ -94,7 +94,7 @@ int run_render(const RenderOptions& o) {
 Runner add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* c = app.add_subcommand("render", "Render one frame to PREFIX.png and PREFIX.exr");
-  c->add_option("--volume", o->scene.volume, "Intensity volume (NRRD .nrrd/.nhdr); default: built-in neurites");
+  c->add_option("--volume", o->scene.volume, "Intensity volume: NRRD (.nrrd/.nhdr) or builtin:KIND[:XxYxZ[:SEED]]; default builtin:neurites (256^3)");
   c->add_option("--labels", o->scene.labels, "Label volume (NRRD, integer type, same dims)");
   c->add_option("--tf", o->scene.tf, "Transfer function JSON");
   c->add_option("--camera", o->scene.camera, "Camera JSON");

@@ -20,14 +20,31 @@ void parse_size(const std::string& s, int& w, int& h) {
   }
 }
 
+namespace {
+
+// "builtin:KIND[:XxYxZ[:SEED]]": a generated data set held in memory (no file).
+GeneratedVolume load_builtin(const std::string& spec) {
+  static const std::regex re("^builtin:([a-z]+)(?::([0-9]{1,5})x([0-9]{1,5})x([0-9]{1,5}))?(?::([0-9]{1,9}))?$");
+  std::smatch m;
+  if (!std::regex_match(spec, m, re)) {
+    throw InputError(spec, "expected builtin:KIND[:XxYxZ[:SEED]], e.g. builtin:neurites:512x512x512");
+  }
+  const ivec3 dims = m[2].matched ? ivec3(std::stoi(m[2]), std::stoi(m[3]), std::stoi(m[4])) : ivec3(kBuiltinSize);
+  const std::uint32_t seed = m[5].matched ? std::uint32_t(std::stoul(m[5])) : 1u;
+  return generate_volume(m[1], dims, seed);
+}
+
+}  // namespace
+
 LoadedScene load_scene(const SceneOptions& o) {
   LoadedScene s;
-  if (o.volume.empty()) {
-    GeneratedVolume g = generate_volume("neurites", ivec3(kBuiltinSize), 1);
+  if (o.volume.empty() || o.volume.rfind("builtin:", 0) == 0) {
+    const std::string spec = o.volume.empty() ? "builtin:neurites" : o.volume;
+    GeneratedVolume g = load_builtin(spec);
     s.volume = std::move(g.intensity);
     s.labels = std::move(g.labels);
     s.label_count = g.label_count;
-    s.name = "built-in neurites " + std::to_string(kBuiltinSize) + "^3";
+    s.name = spec;
   } else {
     s.volume = read_nrrd(o.volume);
     s.name = o.volume;

@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <atomic>
-#include <cstdio>
 
 #include "cache/page_table.h"
 #include "core/error.h"
@@ -11,12 +10,6 @@ namespace sl {
 namespace {
 
 std::size_t round_up(std::size_t n, std::size_t a) { return (n + a - 1) / a * a; }
-
-std::string mb_text(double mb) {
-  char buf[32];
-  std::snprintf(buf, sizeof(buf), mb < 10 ? "%.2f" : "%.0f", mb);
-  return buf;
-}
 
 }  // namespace
 
@@ -31,13 +24,13 @@ BrickCache::BrickCache(const BrickLayout& layout, VoxelType voxel_type, std::opt
   // Slots are addressed by 30-bit page-table payloads.
   const std::uint64_t slots = std::min<std::uint64_t>(budget / per_slot, std::uint64_t(PageEntry::kPayloadMask) + 1);
   if (slots < std::uint64_t(layout.levels)) {
-    const double need = double(per_slot) * double(layout.levels) / double(1 << 20);
+    const std::uint64_t need = (std::uint64_t(per_slot) * std::uint64_t(layout.levels) + (1u << 20) - 1) >> 20;
     throw InputError("--cache-mb", "a budget of " + std::to_string(budget_mb) + " MB holds " +
                                        std::to_string(slots) + " bricks of " +
                                        std::to_string(per_slot / 1024) + " KB, but the volume has " +
                                        std::to_string(layout.levels) +
                                        " levels and needs at least one brick per level (use at least " +
-                                       mb_text(need) + " MB)");
+                                       std::to_string(need) + " MB)");
   }
   slot_count_ = std::uint32_t(slots);
   // for_overwrite: no zeroing pass, so untouched slots never become resident memory.

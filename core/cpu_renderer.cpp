@@ -341,6 +341,8 @@ SkipInputs CpuRenderer::prepare_skipping(const Scene& scene, const RenderSetting
   return in;
 }
 
+void CpuRenderer::invalidate_lists() { state_->lists_valid = false; }
+
 const OccupancyGeometry* CpuRenderer::geometry() const {
   return state_->geometry ? &*state_->geometry : nullptr;
 }

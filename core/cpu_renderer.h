@@ -63,6 +63,9 @@ class CpuRenderer {
   // rebuilt only when their inputs change (a new volume or block size; new block classes after a
   // transfer-function or label change; a new view).
   Frame render(const Scene& scene, const RenderSettings& settings);
+  // Forces the next frame to rebuild its segment lists even if the view is unchanged (benchmarks
+  // measure rasterization frames honestly this way).
+  void invalidate_lists();
   // The occupancy geometry of the last frame (null before a skipping method has run).
   const OccupancyGeometry* geometry() const;
 

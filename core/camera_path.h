@@ -1,0 +1,29 @@
+// Camera paths for benchmarks and recordings: keyframes interpolated smoothly (positions on a
+// Catmull-Rom spline, up vectors without flips), and generated orbits.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "core/camera.h"
+
+namespace sl {
+
+struct CameraPath {
+  std::vector<Camera> keyframes;  // eye, center, up, fov_deg (projection of the first applies to all)
+  int frames = 0;                 // frames rendered along the whole path
+
+  // Camera of frame i in [0, frames): keyframes spread evenly over the frames.
+  Camera at(int i) const;
+};
+
+// `{"frames":N,"keyframes":[{"eye":[..],"center":[..],"up":[..],"fov_deg":30},...]}`;
+// InputError names the file.
+CameraPath load_camera_path(const std::string& path);
+CameraPath parse_camera_path(const std::string& json_text, const std::string& origin);
+std::string camera_path_to_json(const CameraPath& p);
+
+// A full orbit of `frames` frames around the volume centre, starting at the default view.
+CameraPath orbit_path(const vec3& extent, int frames);
+
+}  // namespace sl
