@@ -156,3 +156,46 @@ TEST_F(CliBadInput, LabelDimsMismatch) {
 
 }  // namespace
 }  // namespace sl
+
+namespace sl {
+namespace {
+
+TEST(CliBench, WritesCsvAndJsonForEveryMethod) {
+  const auto dir = test::scratch_dir();
+  const std::string csv = (dir / "b.csv").string(), json = (dir / "b.json").string();
+  const test::RunResult r = test::run_sparseleap(
+      "bench --volume builtin:neurites:48x40x36 --orbit 3 --size 32x24 --warmup 0 --enable fraction:0.5:1 --csv " +
+      csv + " --json " + json);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* m : {"none", "bbox", "octree", "sparseleap"}) {
+    EXPECT_NE(r.output.find(m), std::string::npos) << r.output;
+  }
+  const std::string j = test::read_text(json);
+  for (const char* key : {"\"median_ms\"", "\"p95_ms\"", "\"samples\"", "\"useful_samples\"", "\"depth_complexity_avg\"",
+                          "\"sparseleap\""}) {
+    EXPECT_NE(j.find(key), std::string::npos) << key;
+  }
+  const std::string c = test::read_text(csv);
+  int rows = 0;
+  for (char ch : c) rows += ch == '\n';
+  EXPECT_EQ(rows, 1 + 4 * 3 * 2);  // header + method x frame x (with, without rasterization)
+}
+
+TEST(CliBench, BadInput) {
+  const auto dir = test::scratch_dir();
+  test::write_text(dir / "path.json", "{\"keyframes\": 7}");
+  auto r = test::run_sparseleap("bench --path " + (dir / "path.json").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("path.json"), std::string::npos) << r.output;
+  r = test::run_sparseleap("bench --methods none,warp --volume builtin:neurites:16x16x16");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--method"), std::string::npos) << r.output;
+  r = test::run_sparseleap("bench --volume builtin:neurites:0x16x16");
+  EXPECT_NE(r.exit_code, 0);
+  r = test::run_sparseleap("bench --volume builtin:nope");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("nope"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace sl
