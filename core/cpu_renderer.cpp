@@ -122,8 +122,8 @@ void atomic_min(std::atomic<T>& a, T v) {
 
 // One pixel: walks the method's spans on the global sample grid (Alg. 6 for segment lists; kd-restart
 // for the octree). Returns the depth complexity: segments of the list, or octree nodes visited.
-template <class VT, class LT>
-std::uint32_t cast_pixel(const RayCaster<VT, LT>& caster, const SkipInputs& skip, std::size_t pixel,
+template <class Sampler>
+std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const SkipInputs& skip, std::size_t pixel,
                          const Ray& ray, float t_entry, float t_exit, RayAccum& acc, std::uint32_t& misses) {
   const int k_end = sample_index(t_exit, t_entry, caster.p.inv_dt);
   switch (skip.method) {
@@ -152,7 +152,8 @@ std::uint32_t cast_pixel(const RayCaster<VT, LT>& caster, const SkipInputs& skip
         const RaySegment seg = list_segment(ev, n, k, t_exit);
         if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
         caster.march_span(ray, t_entry, sample_index(seg.t0, t_entry, caster.p.inv_dt),
-                          sample_index(seg.t1, t_entry, caster.p.inv_dt), k_end, acc);
+                          sample_index(seg.t1, t_entry, caster.p.inv_dt), k_end, acc,
+                          seg.cls == OccupancyClass::Unknown);
         if (seg.cls == OccupancyClass::Unknown) ++misses;  // occupancy miss (resolved out of core)
       }
       return segments;
@@ -164,7 +165,7 @@ std::uint32_t cast_pixel(const RayCaster<VT, LT>& caster, const SkipInputs& skip
 template <class VT, class LT>
 void render_typed(const Scene& scene, const RenderSettings& s, const CastParams& params, const SkipInputs& skip,
                   Frame& frame) {
-  RayCaster<VT, LT> caster{params, grid_of<VT>(scene.volume), grid_of<LT>(scene.labels)};
+  RayCaster<DenseSampler<VT, LT>> caster{params, {grid_of<VT>(scene.volume), grid_of<LT>(scene.labels)}};
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
   const Box3 vbox{vec3(0.0f), scene.volume->desc().extent()};
   Image& img = frame.image;
@@ -235,8 +236,10 @@ void render_labels_typed(const Scene& scene, const RenderSettings& s, const Cast
   }
 }
 
+// Field by field: the struct has padding bytes, which memcmp would compare too.
 bool same_view(const RayGenerator& a, const RayGenerator& b) {
-  return std::memcmp(&a, &b, sizeof(RayGenerator)) == 0;
+  return a.eye == b.eye && a.forward == b.forward && a.right == b.right && a.up == b.up && a.half_h == b.half_h &&
+         a.aspect == b.aspect && a.width == b.width && a.height == b.height && a.orthographic == b.orthographic;
 }
 
 }  // namespace

@@ -16,6 +16,47 @@
 
 namespace sl {
 
+// Level of detail per sample (DESIGN.md §4): the coarsest level whose voxel footprint is no larger than
+// the pixel footprint times a bias. One level (in-core data) or a pinned level makes it constant.
+struct LodParams {
+  int levels = 1;              // levels available (1: level 0 only)
+  int pinned = -1;             // >= 0: always this level
+  float pixel_angle = 0.0f;    // perspective: footprint = t * pixel_angle (world units)
+  float pixel_size = 0.0f;     // orthographic: footprint = pixel_size
+  float inv_voxel = 1.0f;      // 1 / level-0 voxel size (min spacing) times the bias
+
+  SL_HOST_DEVICE int level_at(float t) const {
+    if (pinned >= 0) return pinned;
+    if (levels <= 1) return 0;
+    const float ratio = (pixel_size > 0.0f ? pixel_size : t * pixel_angle) * inv_voxel;
+    if (!(ratio >= 2.0f)) return 0;
+    const int l = int(floorf(log2f(ratio)));
+    return l < levels - 1 ? l : levels - 1;
+  }
+};
+
+// Where a sample is taken: its level of detail and whether its occupancy is still unknown (the
+// out-of-core sampler then reports its brick as a miss even when the data are resident; §8.2).
+struct SampleContext {
+  int level = 0;
+  bool occupancy_unknown = false;
+};
+
+// The in-core sampler: dense intensity and optional labels at one level.
+template <class VolT, class LabT>
+struct DenseSampler {
+  DenseGrid<VolT> volume;
+  DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
+
+  SL_HOST_DEVICE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
+  SL_HOST_DEVICE std::uint32_t label_at(const vec3& p, const SampleContext&) const {
+    return labels.data ? labels.label_at(p) : 0u;
+  }
+  SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing, const SampleContext&) const {
+    return volume.gradient(p, spacing);
+  }
+};
+
 struct CastParams {
   RenderMode mode = RenderMode::Dvr;
   float dt = 0.5f;         // world distance between samples = step * min(spacing)
@@ -27,6 +68,7 @@ struct CastParams {
   vec3 spacing{1.0f};
   TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md §8)
   LabelSetView labels;
+  LodParams lod;
 };
 
 // Accumulated state of one ray (front-to-back, premultiplied).
@@ -62,35 +104,42 @@ SL_HOST_DEVICE inline vec3 shade_headlight(const vec3& base, const vec3& gradien
   return base * (0.25f + 0.75f * diffuse) + vec3(0.3f * specular);
 }
 
-template <class VolT, class LabT>
+// Per-ray integration over a sampler (DenseSampler in core; the out-of-core sampler reads through the
+// page table and brick cache). The sampler is a template parameter: no virtual call per sample.
+template <class Sampler>
 struct RayCaster {
   CastParams p;
-  DenseGrid<VolT> volume;
-  DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
+  Sampler volume;
 
-  SL_HOST_DEVICE bool visible_label(const vec3& pos) const {
-    return !p.label_mask || p.labels.enabled(labels.label_at(pos));
+  SL_HOST_DEVICE bool visible_label(const vec3& pos, const SampleContext& c) const {
+    return !p.label_mask || p.labels.enabled(volume.label_at(pos, c));
   }
 
-  // Samples k in [k0, k1). Returns false once the ray has terminated.
-  SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc) const {
+  // Samples k in [k0, k1). Returns false once the ray has terminated. `unknown`: the span's occupancy
+  // is UNKNOWN (an occupancy miss for the out-of-core sampler).
+  SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc,
+                            bool unknown = false) const {
     if (acc.done) return false;
+    SampleContext ctx;
+    ctx.occupancy_unknown = unknown;
     if (p.mode == RenderMode::Iso && k0 > 0 && acc.prev_k != k0 - 1 && k0 < k1) {
       // Prime the bracket with the sample before the span, so a crossing right at a span's start
       // is found exactly as a method without skipping finds it.
       const float t = t_entry + float(k0 - 1) * p.dt;
-      acc.prev_v = volume.sample(ray.at(t));
+      ctx.level = p.lod.level_at(t);
+      acc.prev_v = volume.sample(ray.at(t), ctx);
       acc.prev_k = k0 - 1;
       ++acc.samples;
     }
     for (int k = k0; k < k1; ++k) {
       const float t = t_entry + float(k) * p.dt;
       const vec3 pos = ray.at(t);
-      const float v = volume.sample(pos);
+      ctx.level = p.lod.level_at(t);
+      const float v = volume.sample(pos, ctx);
       ++acc.samples;
       switch (p.mode) {
         case RenderMode::Dvr: {
-          if (!visible_label(pos)) break;
+          if (!visible_label(pos, ctx)) break;
           const vec4 c = p.tf.lookup(v);
           if (c.w > 0.0f) {
             const float w = (1.0f - acc.alpha) * c.w;
@@ -105,7 +154,7 @@ struct RayCaster {
           break;
         }
         case RenderMode::Labels: {
-          const std::uint32_t id = labels.data ? labels.label_at(pos) : 0u;
+          const std::uint32_t id = volume.label_at(pos, ctx);
           if (id == 0u || !p.labels.enabled(id)) break;
           const float a = p.tf.lookup(v).w;
           if (a > 0.0f) {
@@ -121,7 +170,7 @@ struct RayCaster {
           break;
         }
         case RenderMode::Mip: {
-          if (!visible_label(pos)) break;
+          if (!visible_label(pos, ctx)) break;
           if (!acc.mip_any || v > acc.mip_max) acc.mip_max = v;
           acc.mip_any = true;
           ++acc.useful_samples;
@@ -129,7 +178,7 @@ struct RayCaster {
         }
         case RenderMode::Iso: {
           if (acc.prev_k == k - 1 && ((acc.prev_v < p.iso) != (v < p.iso))) {
-            if (iso_hit(ray, t - p.dt, acc.prev_v, t, v, acc)) return false;
+            if (iso_hit(ray, t - p.dt, acc.prev_v, t, v, ctx, acc)) return false;
           }
           acc.prev_v = v;
           acc.prev_k = k;
@@ -143,18 +192,20 @@ struct RayCaster {
   // Samples the span [k0, k1) of a skipping method. Iso mode also takes the sample at k1 (when
   // k1 < k_end): a crossing between a span's last sample and the first skipped one is found exactly as
   // a method without skipping finds it (march() already primes with the sample before k0).
-  SL_HOST_DEVICE bool march_span(const Ray& ray, float t_entry, int k0, int k1, int k_end, RayAccum& acc) const {
+  SL_HOST_DEVICE bool march_span(const Ray& ray, float t_entry, int k0, int k1, int k_end, RayAccum& acc,
+                                 bool unknown = false) const {
     if (k1 > k_end) k1 = k_end;
     if (p.mode == RenderMode::Iso && k1 < k_end && k0 < k1) ++k1;
-    return march(ray, t_entry, k0, k1, acc);
+    return march(ray, t_entry, k0, k1, acc, unknown);
   }
 
   // Refines a bracketed crossing by bisection, then shades it; false if its label is masked out.
-  SL_HOST_DEVICE bool iso_hit(const Ray& ray, float ta, float va, float tb, float vb, RayAccum& acc) const {
+  SL_HOST_DEVICE bool iso_hit(const Ray& ray, float ta, float va, float tb, float vb, const SampleContext& ctx,
+                              RayAccum& acc) const {
     const bool a_below = va < p.iso;
     for (int i = 0; i < 12; ++i) {
       const float tm = 0.5f * (ta + tb);
-      const float vm = volume.sample(ray.at(tm));
+      const float vm = volume.sample(ray.at(tm), ctx);
       if ((vm < p.iso) == a_below) {
         ta = tm;
         va = vm;
@@ -166,9 +217,9 @@ struct RayCaster {
     const float f = vb != va ? (p.iso - va) / (vb - va) : 0.5f;
     const float th = ta + glm::clamp(f, 0.0f, 1.0f) * (tb - ta);
     const vec3 hit = ray.at(th);
-    if (!visible_label(hit)) return false;
+    if (!visible_label(hit, ctx)) return false;
     const vec3 base = vec3(p.tf.lookup(p.iso));
-    acc.color = shade_headlight(base, volume.gradient(hit, p.spacing), ray.dir);
+    acc.color = shade_headlight(base, volume.gradient(hit, p.spacing, ctx), ray.dir);
     acc.alpha = 1.0f;
     acc.hit_t = th;
     acc.done = true;

@@ -32,7 +32,7 @@ struct DeviceBuffer {
 };
 
 template <class VT, class LT>
-__global__ void cast_none_kernel(RayCaster<VT, LT> caster, RayGenerator gen, Box3 vbox, vec4* rgba,
+__global__ void cast_none_kernel(RayCaster<DenseSampler<VT, LT>> caster, RayGenerator gen, Box3 vbox, vec4* rgba,
                                  float* samples) {
   const int x = int(blockIdx.x * blockDim.x + threadIdx.x);
   const int y = int(blockIdx.y * blockDim.y + threadIdx.y);
@@ -70,8 +70,8 @@ void render_typed(const Scene& scene, const RenderSettings& s, CastParams p, Fra
   DeviceBuffer<std::uint32_t> dbits(nbits, p.labels.bits);
   if (p.labels.bits) p.labels.bits = dbits.ptr;
 
-  RayCaster<VT, LT> caster{p, device_grid<VT>(vol, dvol), {}};
-  if (scene.labels) caster.labels = device_grid<LT>(*scene.labels, dlab);
+  RayCaster<DenseSampler<VT, LT>> caster{p, {device_grid<VT>(vol, dvol), {}}};
+  if (scene.labels) caster.volume.labels = device_grid<LT>(*scene.labels, dlab);
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
   const Box3 vbox{vec3(0.0f), vol.desc().extent()};
   const std::size_t npix = std::size_t(s.width) * s.height;
