@@ -25,8 +25,8 @@ BrickLayout BrickLayout::make(ivec3 dims, vec3 spacing, int brick_size, const st
   l.brick_size = brick_size;
   ivec3 d = dims;
   for (int level = 0;; ++level) {
-    if (level >= kMaxLevels) {
-      throw InputError(origin, "volume needs more than " + std::to_string(kMaxLevels) +
+    if (level >= kMaxBrickLevels) {
+      throw InputError(origin, "volume needs more than " + std::to_string(kMaxBrickLevels) +
                                    " levels of " + std::to_string(brick_size) + "^3 bricks");
     }
     l.level_dims[level] = d;
@@ -40,7 +40,7 @@ BrickLayout BrickLayout::make(ivec3 dims, vec3 spacing, int brick_size, const st
     if (d.x <= brick_size && d.y <= brick_size && d.z <= brick_size) break;
     d = (d + 1) / 2;  // ceil(dims / 2^l) == ceil(ceil(dims / 2^(l-1)) / 2)
   }
-  for (int level = l.levels; level < kMaxLevels; ++level) {
+  for (int level = l.levels; level < kMaxBrickLevels; ++level) {
     l.level_dims[level] = ivec3(0);
     l.level_bricks[level] = ivec3(0);
   }

@@ -22,7 +22,7 @@
 namespace sl {
 
 // Levels 0 .. 14 are usable; level 15 is reserved so that the all-ones id can never be a real brick.
-inline constexpr int kMaxLevels = 15;
+inline constexpr int kMaxBrickLevels = 15;
 inline constexpr int kDefaultBrickSize = 32;
 inline constexpr int kBrickApron = 1;
 
@@ -76,15 +76,15 @@ struct WorldBox {
 
 // Geometry of the brick pyramid. Plain, fixed-size, copyable to a device.
 struct BrickLayout {
-  ivec3 level_dims[kMaxLevels];    // voxels per axis at each level
-  ivec3 level_bricks[kMaxLevels];  // bricks per axis at each level
+  ivec3 level_dims[kMaxBrickLevels];    // voxels per axis at each level
+  ivec3 level_bricks[kMaxBrickLevels];  // bricks per axis at each level
   vec3 spacing{1.0f};              // level-0 voxel spacing
   vec3 inv_spacing{1.0f};          // 1 / spacing, computed as DenseGrid users do (bit-identical sampling)
   std::int32_t brick_size = kDefaultBrickSize;  // B
   std::int32_t levels = 0;
 
   // Host-only constructor. Throws InputError("--brick", ...) when B is not 8, 16, 32 or 64, and
-  // InputError(origin, ...) when the volume needs more than kMaxLevels levels or 2^20 bricks per axis.
+  // InputError(origin, ...) when the volume needs more than kMaxBrickLevels levels or 2^20 bricks per axis.
   static BrickLayout make(ivec3 dims, vec3 spacing, int brick_size = kDefaultBrickSize,
                           const std::string& origin = "volume");
   static BrickLayout make(const VolumeDesc& d, int brick_size = kDefaultBrickSize,
@@ -147,6 +147,6 @@ struct BrickLayout {
     return (std::uint32_t(s.z) * n + std::uint32_t(s.y)) * n + std::uint32_t(s.x);
   }
 };
-static_assert(sizeof(BrickLayout) == 2 * kMaxLevels * 12 + 2 * 12 + 8, "BrickLayout is plain data");
+static_assert(sizeof(BrickLayout) == 2 * kMaxBrickLevels * 12 + 2 * 12 + 8, "BrickLayout is plain data");
 
 }  // namespace sl

@@ -8,7 +8,7 @@ namespace {
 
 // Tube density: the number of local tubes per full cell is kTubesMin + (hash % kTubesSpread), tuned
 // together with the fibre density so that about 2 % of voxels are non-zero, like generate_volume.
-constexpr std::uint32_t kTubesMin = 11;
+constexpr std::uint32_t kTubesMin = 13;
 constexpr std::uint32_t kTubesSpread = 11;
 constexpr float kMinLength = 24.0f, kMaxLength = 120.0f;  // main path length (voxels)
 constexpr float kRadiusBoost = 1.02f;  // E[(1 + 0.2 sin)^2]: the +-20 % radius wobble's area gain
@@ -217,20 +217,36 @@ void cell_tube_masses(const Params& p, ivec3 c, std::vector<TubeMass>& out) {
   }
 }
 
+namespace {
+
+// Each axis's fibres form a family sharing one tilt (8-17 degrees off the axis, in a direction from
+// the seed), so fibres are not axis-aligned yet stay local: in coordinates sheared by the tilt, a
+// fibre stays within kFibreWander of its lattice seed.
+vec2 family_tilt(const Params& p, int axis) {
+  Rng rng(std::uint64_t(p.seed) * 0x9E3779B97F4A7C15ull + std::uint64_t(axis) + 1);
+  const float angle = rng.uniform(0.0f, 2.0f * kPi), m = rng.uniform(0.15f, 0.3f);
+  return m * vec2(std::cos(angle), std::sin(angle));
+}
+
+}  // namespace
+
 void fibres_near(const Params& p, vec3 lo, vec3 hi, std::vector<Fibre>& out) {
   const float reach = kFibreWander + kReach;
   for (int a = 0; a < 3; ++a) {
     const int u = (a + 1) % 3, v = (a + 2) % 3;
     if (hi[a] < -kReach || lo[a] > float(p.dims[a]) + kReach) continue;
-    const int ni = (p.dims[u] + kFibreGrid - 1) / kFibreGrid, nj = (p.dims[v] + kFibreGrid - 1) / kFibreGrid;
-    const int i0 = std::max(0, int(std::floor((lo[u] - reach) / kFibreGrid)));
-    const int i1 = std::min(ni - 1, int(std::floor((hi[u] + reach) / kFibreGrid)));
-    const int j0 = std::max(0, int(std::floor((lo[v] - reach) / kFibreGrid)));
-    const int j1 = std::min(nj - 1, int(std::floor((hi[v] + reach) / kFibreGrid)));
+    const vec2 tilt = family_tilt(p, a);
+    // Seeds whose sheared line can come within reach of the box over its range along the axis.
+    const float ta = lo[a] - kReach, tb = hi[a] + kReach;
+    const vec2 s0 = tilt * ta, s1 = tilt * tb;
+    const float u_lo = lo[u] - std::max(s0.x, s1.x) - reach, u_hi = hi[u] - std::min(s0.x, s1.x) + reach;
+    const float v_lo = lo[v] - std::max(s0.y, s1.y) - reach, v_hi = hi[v] - std::min(s0.y, s1.y) + reach;
+    const int i0 = int(std::floor(u_lo / kFibreGrid)), i1 = int(std::floor(u_hi / kFibreGrid));
+    const int j0 = int(std::floor(v_lo / kFibreGrid)), j1 = int(std::floor(v_hi / kFibreGrid));
+    const std::uint64_t family = mix64(std::uint64_t(p.seed) * 0xC2B2AE3D27D4EB4Full + std::uint64_t(a) + 1);
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
-        const std::uint64_t key = mix64(std::uint64_t(p.seed) * 0xC2B2AE3D27D4EB4Full ^
-                                        (std::uint64_t(a + 1) << 60) ^ std::uint64_t(i) ^ (std::uint64_t(j) << 30));
+        const std::uint64_t key = mix64(family ^ ((std::uint64_t(std::uint32_t(i)) << 32) | std::uint32_t(j)));
         const std::uint64_t pick = key % 10;
         const int count = pick < 3 ? 0 : pick < 8 ? 1 : 2;  // 0.9 fibres per lattice cell and axis
         for (int k = 0; k < count; ++k) {
@@ -239,8 +255,12 @@ void fibres_near(const Params& p, vec3 lo, vec3 hi, std::vector<Fibre>& out) {
           f.axis = a;
           f.u0 = (float(i) + rng.uniform()) * kFibreGrid;
           f.v0 = (float(j) + rng.uniform()) * kFibreGrid;
-          const float amp_max[2] = {20.0f, 6.0f}, len_lo[2] = {400.0f, 120.0f}, len_hi[2] = {1600.0f, 400.0f};
-          float slope2 = 0.0f;
+          f.tilt_u = tilt.x;
+          f.tilt_v = tilt.y;
+          // Two sinusoids per transverse axis: long gentle bends and shorter wiggles, at most
+          // 24 + 10 < kFibreWander voxels off the sheared line.
+          const float amp_max[2] = {24.0f, 10.0f}, len_lo[2] = {300.0f, 80.0f}, len_hi[2] = {1200.0f, 250.0f};
+          float slope2 = tilt.x * tilt.x + tilt.y * tilt.y;
           for (int s = 0; s < 4; ++s) {
             f.amp[s] = rng.uniform(0.0f, amp_max[s % 2]);
             f.omega[s] = 2.0f * kPi / rng.uniform(len_lo[s % 2], len_hi[s % 2]);
@@ -256,9 +276,7 @@ void fibres_near(const Params& p, vec3 lo, vec3 hi, std::vector<Fibre>& out) {
           f.line_core = kPi * f.r0 * f.r0 * kRadiusBoost * arc;
           f.line_mass = f.brightness * (f.line_core + cross_section(0.0f) * arc);
           f.id = 0x80000000u | std::uint32_t(rng.next() & 0x7FFFFFFFu);
-          // Seeds past the far face of a partial lattice cell would lie outside the volume.
-          if (f.u0 >= float(p.dims[u]) || f.v0 >= float(p.dims[v])) continue;
-          if (f.u0 + reach < lo[u] || f.u0 - reach > hi[u] || f.v0 + reach < lo[v] || f.v0 - reach > hi[v]) continue;
+          if (f.u0 < u_lo || f.u0 > u_hi || f.v0 < v_lo || f.v0 > v_hi) continue;
           out.push_back(f);
         }
       }
@@ -270,8 +288,10 @@ vec3 fibre_centre(const Fibre& f, float t) {
   const int u = (f.axis + 1) % 3, v = (f.axis + 2) % 3;
   vec3 p;
   p[f.axis] = t;
-  p[u] = f.u0 + f.amp[0] * std::sin(f.omega[0] * t + f.phase[0]) + f.amp[1] * std::sin(f.omega[1] * t + f.phase[1]);
-  p[v] = f.v0 + f.amp[2] * std::sin(f.omega[2] * t + f.phase[2]) + f.amp[3] * std::sin(f.omega[3] * t + f.phase[3]);
+  p[u] = f.u0 + f.tilt_u * t + f.amp[0] * std::sin(f.omega[0] * t + f.phase[0]) +
+         f.amp[1] * std::sin(f.omega[1] * t + f.phase[1]);
+  p[v] = f.v0 + f.tilt_v * t + f.amp[2] * std::sin(f.omega[2] * t + f.phase[2]) +
+         f.amp[3] * std::sin(f.omega[3] * t + f.phase[3]);
   return p;
 }
 
@@ -281,9 +301,9 @@ PathNode fibre_at(const Fibre& f, float t) {
   n.p = fibre_centre(f, t);
   n.d = vec3(0.0f);
   n.d[f.axis] = 1.0f;
-  n.d[u] = f.amp[0] * f.omega[0] * std::cos(f.omega[0] * t + f.phase[0]) +
+  n.d[u] = f.tilt_u + f.amp[0] * f.omega[0] * std::cos(f.omega[0] * t + f.phase[0]) +
            f.amp[1] * f.omega[1] * std::cos(f.omega[1] * t + f.phase[1]);
-  n.d[v] = f.amp[2] * f.omega[2] * std::cos(f.omega[2] * t + f.phase[2]) +
+  n.d[v] = f.tilt_v + f.amp[2] * f.omega[2] * std::cos(f.omega[2] * t + f.phase[2]) +
            f.amp[3] * f.omega[3] * std::cos(f.omega[3] * t + f.phase[3]);
   n.r = std::clamp(f.r0 * (1.0f + 0.2f * std::sin(f.r_phase + f.r_omega * t)), 1.0f, kMaxRadius);
   return n;

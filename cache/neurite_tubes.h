@@ -4,10 +4,10 @@
 //    branches, as in generate_volume's neurites) come from a hash of (seed, cell) and are steered
 //    back so that they never reach further than kMargin outside the cell. A region needs only the
 //    cells within kMargin of it.
-//  - Fibres: long axon-like tubes crossing the whole volume along x, y or z (generate_volume's
-//    "crossing tubes"), seeded on a kFibreGrid² lattice over the perpendicular plane; a fibre wanders
-//    at most kFibreWander from its lattice seed, so a region needs only nearby lattice cells. Their
-//    label is one id along the whole length.
+//  - Fibres: long axon-like tubes crossing the whole volume roughly along x, y or z (generate_volume's
+//    "crossing tubes"): three families, each tilted off its axis, seeded on a kFibreGrid² lattice in
+//    coordinates sheared by the tilt; a fibre wanders at most kFibreWander from its sheared line, so a
+//    region needs only nearby lattice cells. A fibre has one label id along its whole length.
 // Coordinates are level-0 voxel units; voxel i's centre is at i + 0.5 (DESIGN.md §8).
 #pragma once
 
@@ -25,7 +25,7 @@ inline constexpr float kHalfWidth = 0.75f;    // intensity profile falls 1 -> 0 
 inline constexpr float kMaxRadius = 4.0f;
 inline constexpr float kReach = kMaxRadius + kHalfWidth;  // furthest a tube affects from its axis
 inline constexpr int kFibreGrid = 128;        // fibre lattice spacing (voxels)
-inline constexpr float kFibreWander = 30.0f;  // max transverse excursion of a fibre from its seed
+inline constexpr float kFibreWander = 36.0f;  // max transverse excursion from the sheared line
 inline constexpr float kPi = 3.14159265358979f;
 // Integral of the smoothstep profile over a tube's cross-section: pi r^2 plus a halo term
 // 2 pi * 0.1 * kHalfWidth^2 (the profile is antisymmetric about the surface, so only the first
@@ -102,8 +102,9 @@ struct TubeMass {
 void cell_tube_masses(const Params& p, ivec3 cell, std::vector<TubeMass>& out);
 
 struct Fibre {
-  int axis;  // runs along this axis; its position across it wanders around (u0, v0)
+  int axis;  // runs along this axis; across it, it wanders around (u0, v0) + tilt * t
   float u0, v0;
+  float tilt_u, tilt_v;
   float amp[4], omega[4], phase[4];  // two sinusoids per transverse axis
   float r0, r_phase, r_omega;
   float brightness;

@@ -107,7 +107,7 @@ PageTableView PageTable::view() const {
   v.directory = directory_.data();
   v.pool = pool_.data();
   v.levels = layout_.levels;
-  for (int l = 0; l < kMaxLevels; ++l) v.level[l] = levels_[l];
+  for (int l = 0; l < kMaxBrickLevels; ++l) v.level[l] = levels_[l];
   return v;
 }
 

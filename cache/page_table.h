@@ -77,7 +77,7 @@ static_assert(sizeof(PageTableLevel) == 16);
 struct PageTableView {
   const std::uint32_t* directory = nullptr;  // per level: page index + 1, or 0 (not allocated)
   const std::uint32_t* pool = nullptr;       // pages of kPageEntries entries each
-  PageTableLevel level[kMaxLevels];
+  PageTableLevel level[kMaxBrickLevels];
   std::int32_t levels = 0;
 
   // Entry of brick `id`; a brick outside the level or on a page never allocated reads Unmapped.
@@ -122,7 +122,7 @@ class PageTable {
 
  private:
   BrickLayout layout_{};
-  PageTableLevel levels_[kMaxLevels]{};
+  PageTableLevel levels_[kMaxBrickLevels]{};
   std::vector<std::uint32_t> directory_;
   std::vector<std::uint32_t> pool_;        // kPageEntries per page
   std::vector<std::uint16_t> page_used_;   // non-Unmapped entries per page (0 .. 4096)

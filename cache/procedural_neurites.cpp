@@ -248,7 +248,7 @@ void exact(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i
   }
 }
 
-// ---- Splat: path samples deposited into coarse voxels ---------------------------------------------
+// ---- PathSplat: walked path samples deposited into coarse voxels -----------------------------------
 
 void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float ds, bool per_sample) {
   std::vector<Fibre> fibres;
@@ -279,7 +279,7 @@ void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float d
   });
 }
 
-void splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
+void path_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
   const int s = 1 << level;
   Accumulator acc(level, first, n, p.dims);
   const vec3 lo0(first * s), hi0(glm::min((first + n) * s, p.dims));
@@ -310,9 +310,9 @@ void splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i
   acc.finish(out_i, out_l);
 }
 
-// ---- Summary: whole cells per coarse voxel ---------------------------------------------------------
+// ---- LineSplat and CellSum: tubes from their hashes, without walking -------------------------------
 
-void summary(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
+void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
   const int s = 1 << level;
   Accumulator acc(level, first, n, p.dims);
   const vec3 lo0(first * s), hi0(glm::min((first + n) * s, p.dims));
@@ -398,9 +398,9 @@ void ProceduralNeuritesSource::synthesize(int level, ivec3 first, ivec3 n, std::
   const Params p = params_of(desc_, seed_);
   switch (method(level)) {
     case Method::Exact: exact(p, level, first, n, intensity, labels); break;
-    case Method::PathSplat: splat(p, level, first, n, intensity, labels); break;
+    case Method::PathSplat: path_splat(p, level, first, n, intensity, labels); break;
     case Method::LineSplat:
-    case Method::CellSum: summary(p, level, first, n, intensity, labels); break;
+    case Method::CellSum: hashed_splat(p, level, first, n, intensity, labels); break;
   }
 }
 

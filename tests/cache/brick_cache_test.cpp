@@ -115,8 +115,9 @@ TEST(BrickCache, TranslationChainAtEveryLevel) {
     const DenseGrid<std::uint32_t> dlab = grid_of<std::uint32_t>(*src.label_level(level), layout.level_spacing(level));
     for (int i = 0; i < 4000; ++i) {
       // Deterministic scatter over the volume box, including its faces.
-      const vec3 f(float((i * 7919) % 1000) / 999.0f, float((i * 104729) % 1000) / 999.0f,
-                   float((i * 1299709) % 1000) / 999.0f);
+      const std::int64_t k = i;
+      const vec3 f(float(k * 7919 % 1000) / 999.0f, float(k * 104729 % 1000) / 999.0f,
+                   float(k * 1299709 % 1000) / 999.0f);
       const vec3 p = f * vec3(dims);
       const BrickId id = layout.brick_at(level, p);
       const PageEntry e = ptv.lookup(id);
@@ -128,7 +129,8 @@ TEST(BrickCache, TranslationChainAtEveryLevel) {
   }
 }
 
-BrickId brick(int x) { return BrickId::pack(0, {x, 0, 0}); }
+// Distinct level-0 bricks of the 97x131x73, B = 32 layout (4 x 5 x 3 bricks).
+BrickId brick(int k) { return BrickId::pack(0, {k % 4, k / 4 % 5, k / 20}); }
 
 TEST(BrickCache, SlotCountFromBudget) {
   const BrickLayout layout = BrickLayout::make(ivec3(97, 131, 73), vec3(1.0f), 32);

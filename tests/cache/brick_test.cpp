@@ -11,7 +11,7 @@ namespace {
 ivec3 ceil_div(ivec3 a, int b) { return (a + b - 1) / b; }
 
 RC_GTEST_PROP(BrickId, PackUnpackRoundTrip, ()) {
-  const int level = *rc::gen::inRange(0, kMaxLevels);
+  const int level = *rc::gen::inRange(0, kMaxBrickLevels);
   const auto axis = rc::gen::inRange(0, 1 << BrickId::kAxisBits);
   const ivec3 c(*axis, *axis, *axis);
   const BrickId id = BrickId::pack(level, c);
@@ -30,7 +30,7 @@ TEST(BrickId, BitSplitAndInvalid) {
   EXPECT_FALSE(BrickId{}.valid());
   // The largest valid id (level 14, all coordinates maximal) is not the invalid one.
   const int m = (1 << 20) - 1;
-  EXPECT_TRUE(BrickId::pack(kMaxLevels - 1, {m, m, m}).valid());
+  EXPECT_TRUE(BrickId::pack(kMaxBrickLevels - 1, {m, m, m}).valid());
   EXPECT_EQ(to_string(BrickId::pack(2, {3, 4, 5})), "level 2 brick (3, 4, 5)");
 }
 
