@@ -12,5 +12,6 @@ Runner add_render_command(CLI::App& app);
 Runner add_gen_command(CLI::App& app);
 Runner add_info_command(CLI::App& app);
 Runner add_bench_command(CLI::App& app);
+Runner add_view_command(CLI::App& app);
 
 }  // namespace sl::app

@@ -21,6 +21,7 @@ int main(int argc, char** argv) {
   add(sl::app::add_gen_command);
   add(sl::app::add_info_command);
   add(sl::app::add_bench_command);
+  add(sl::app::add_view_command);
 
   try {
     app.parse(argc, argv);

@@ -6,7 +6,13 @@
 
 #include <tbb/global_control.h>
 
+#include <unistd.h>
+
+#include <optional>
+
 #include "apps/backend.h"
+#include "cache/out_of_core.h"
+#include "cache/volume_source.h"
 #include "apps/commands.h"
 #include "apps/scene_loader.h"
 #include "core/cpu_renderer.h"
@@ -31,6 +37,14 @@ struct RenderOptions {
   int threads = 0;
   bool ert = false;
   bool boxes = false;
+  // Out-of-core path.
+  int frames = 1;
+  std::size_t cache_mb = 0;  // 0: in core (unless the volume is procedural)
+  int brick = 32;
+  int lod = -1;
+  float lod_bias = 1.0f;
+  unsigned retire_frames = 60;
+  bool strict = false;
 };
 
 void write_text_file(const std::string& path, const std::string& text) {
@@ -42,6 +56,71 @@ void write_text_file(const std::string& path, const std::string& text) {
   std::error_code ec;
   std::filesystem::rename(tmp, path, ec);
   if (ec) throw InputError(path, "cannot write file: " + ec.message());
+}
+
+// Out of core: the volume is read through the page table and brick cache, bricks stream in over
+// frames; the last frame is written.
+int run_out_of_core(const RenderOptions& o, RenderSettings rs) {
+  if (o.backend == "cuda") throw InputError("--backend", "cuda: out-of-core rendering runs on the CPU backend so far");
+  std::shared_ptr<const VolumeSource> source;
+  TransferFunction tf;
+  Camera camera;
+  std::optional<LabelSet> enabled;
+  std::string name = o.scene.volume;
+  if (is_procedural_spec(o.scene.volume)) {
+    source = parse_volume_spec(o.scene.volume);
+    if (!o.scene.labels.empty()) throw InputError("--labels", "a procedural volume has its own labels");
+    if (!o.scene.enable.empty()) {
+      throw InputError("--enable", "label subsets of procedural volumes are not supported (their ids are hashed)");
+    }
+    tf = o.scene.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.scene.tf);
+    camera = o.scene.camera.empty() ? default_camera(source->desc().extent()) : load_camera(o.scene.camera);
+  } else {
+    LoadedScene ls = load_scene(o.scene);
+    name = ls.name;
+    tf = ls.tf;
+    camera = ls.camera;
+    enabled = ls.enabled;
+    auto vol = std::make_shared<const Volume>(std::move(ls.volume));
+    std::shared_ptr<const Volume> lab;
+    if (!ls.labels.empty()) lab = std::make_shared<const Volume>(std::move(ls.labels));
+    source = std::make_shared<MemoryVolumeSource>(vol, lab, name);
+  }
+  if (rs.mode == RenderMode::Labels && !enabled) {
+    throw InputError("--mode", "labels mode out of core needs --enable (the set of labels to show)");
+  }
+  rs.iso = std::isnan(o.iso) ? (source->desc().type == VoxelType::U8 ? 128.0f : 0.5f * (tf.vmin() + tf.vmax())) : o.iso;
+  if (rs.method != SkipMethod::SparseLeap && rs.method != SkipMethod::None) {
+    throw InputError("--method", "out-of-core rendering supports sparseleap and none");
+  }
+  OutOfCoreSettings os;
+  os.brick = o.brick;
+  os.cache_mb = o.cache_mb > 0 ? o.cache_mb : 1024;
+  os.lod = o.lod;
+  os.lod_bias = o.lod_bias;
+  os.retire_frames = o.retire_frames;
+  if (!(o.lod_bias > 0.0f)) throw InputError("--lod-bias", "must be positive");
+  OutOfCoreRenderer renderer(source, os, rs.block);
+  OutOfCoreScene scene{&tf, enabled ? &*enabled : nullptr, camera};
+  const bool tty = ::isatty(2);
+  Frame frame = render_frames(renderer, scene, rs, o.frames, [&](const Frame& f) {
+    if (tty) {
+      std::fprintf(stderr, "\r  frame %u/%d: %.0f ms, %llu loads, %llu misses, %llu pending   ", f.stats.cache.frame,
+                   o.frames, f.stats.time_ms.total, (unsigned long long)f.stats.cache.loads,
+                   (unsigned long long)f.stats.cache.misses, (unsigned long long)f.stats.cache.pending);
+    }
+  });
+  if (tty) std::fprintf(stderr, "\r%70s\r", "");
+  write_png(o.out + ".png", frame.image);
+  write_exr(o.out + ".exr", frame.image);
+  if (!o.stats_json.empty()) write_text_file(o.stats_json, stats_to_json(frame.stats));
+  std::printf("%s (%s, %s) -> %s.png, %s.exr\n", stats_summary(frame.stats).c_str(), name.c_str(),
+              "out of core", o.out.c_str(), o.out.c_str());
+  if (o.strict && renderer.failed_bricks() > 0) {
+    std::fprintf(stderr, "sparseleap: error: %zu bricks failed to load (--strict)\n", renderer.failed_bricks());
+    return 1;
+  }
+  return 0;
 }
 
 int run_render(const RenderOptions& o) {
@@ -66,6 +145,8 @@ int run_render(const RenderOptions& o) {
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
   }
 
+  if (o.frames < 1 || o.frames > 100000) throw InputError("--frames", "must be between 1 and 100000");
+  if (is_procedural_spec(o.scene.volume) || o.cache_mb > 0) return run_out_of_core(o, rs);
   LoadedScene ls = load_scene(o.scene);
   if (std::isnan(o.iso)) {
     rs.iso = ls.volume.type() == VoxelType::U8 ? 128.0f : 0.5f * (ls.tf.vmin() + ls.tf.vmax());
@@ -81,7 +162,9 @@ int run_render(const RenderOptions& o) {
 
   validate(scene, rs);
   const Backend backend = choose_backend(o.backend);  // after all checks: bad input is the only line
-  Frame frame = render_frame(backend, scene, rs);
+  FrameRenderer renderer(backend);
+  Frame frame;
+  for (int f = 0; f < o.frames; ++f) frame = renderer.render(scene, rs);
   write_png(o.out + ".png", frame.image);
   write_exr(o.out + ".exr", frame.image);
   if (!o.stats_json.empty()) write_text_file(o.stats_json, stats_to_json(frame.stats));
@@ -94,7 +177,7 @@ int run_render(const RenderOptions& o) {
 Runner add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* c = app.add_subcommand("render", "Render one frame to PREFIX.png and PREFIX.exr");
-  c->add_option("--volume", o->scene.volume, "Intensity volume: NRRD (.nrrd/.nhdr) or builtin:KIND[:XxYxZ[:SEED]]; default builtin:neurites (256^3)");
+  c->add_option("--volume", o->scene.volume, "Volume: NRRD (.nrrd/.nhdr), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
   c->add_option("--labels", o->scene.labels, "Label volume (NRRD, integer type, same dims)");
   c->add_option("--tf", o->scene.tf, "Transfer function JSON");
   c->add_option("--camera", o->scene.camera, "Camera JSON");
@@ -111,6 +194,15 @@ Runner add_render_command(CLI::App& app) {
   c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
   c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
   c->add_option("--out", o->out, "Output prefix")->capture_default_str();
+  c->add_option("--frames", o->frames, "Frames of the same view (out of core: the cache fills and converges)")
+      ->capture_default_str();
+  c->add_option("--cache-mb", o->cache_mb, "Out of core with this brick-cache budget (default for procedural: 1024)");
+  c->add_option("--brick", o->brick, "Brick payload edge: 8, 16, 32 or 64 (out of core)")->capture_default_str();
+  c->add_option("--lod", o->lod, "Pin every sample to this level (out of core; default: from the pixel footprint)");
+  c->add_option("--lod-bias", o->lod_bias, "Level-of-detail bias (>1 coarser)")->capture_default_str();
+  c->add_option("--retire-frames", o->retire_frames, "Retire occupancy-tree nodes unused this many frames")
+      ->capture_default_str();
+  c->add_flag("--strict", o->strict, "Exit non-zero at the end if any brick failed to load");
   c->add_option("--stats-json", o->stats_json, "Write frame statistics as JSON");
   return [o] { return run_render(*o); };
 }

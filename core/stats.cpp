@@ -26,6 +26,14 @@ std::string stats_to_json(const Stats& s) {
   j["metadata_blocks"] = s.metadata_blocks;
   j["tree"] = {{"nodes", s.tree_nodes}};
   j["depth_complexity"] = {{"avg", s.depth_complexity_avg}, {"max", s.depth_complexity_max}, {"min", s.depth_complexity_min}};
+  if (s.cache.present) {
+    j["frame"] = s.cache.frame;
+    j["cache"] = {{"resident_mb", s.cache.resident_mb}, {"hits", s.cache.hits},       {"misses", s.cache.misses},
+                  {"loads", s.cache.loads},             {"evictions", s.cache.evictions}, {"pending", s.cache.pending},
+                  {"failed", s.cache.failed}};
+    j["page_table_kb"] = s.cache.page_table_kb;
+    j["converged_at_frame"] = s.cache.converged_at_frame;
+  }
   return j.dump(2);
 }
 
@@ -40,6 +48,15 @@ std::string stats_summary(const Stats& s) {
   if (s.depth_complexity_max > 0) {
     std::snprintf(buf, sizeof buf, ", depth complexity avg %.2f max %u", s.depth_complexity_avg,
                   s.depth_complexity_max);
+    line += buf;
+  }
+  if (s.cache.present) {
+    std::snprintf(buf, sizeof buf, "; frame %u: %.0f MB resident, %llu loads, %llu misses, %llu pending%s",
+                  s.cache.frame, s.cache.resident_mb, (unsigned long long)s.cache.loads,
+                  (unsigned long long)s.cache.misses, (unsigned long long)s.cache.pending,
+                  s.cache.converged_at_frame >= 0
+                      ? (", converged at frame " + std::to_string(s.cache.converged_at_frame)).c_str()
+                      : ", not converged");
     line += buf;
   }
   return line;

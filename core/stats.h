@@ -11,6 +11,21 @@ struct StageTimes {
   double total = 0, metadata = 0, tree = 0, geometry = 0, order = 0, lists = 0, raycast = 0;
 };
 
+// Out-of-core counters of a frame (present only on the out-of-core path).
+struct CacheStats {
+  bool present = false;
+  std::uint32_t frame = 0;
+  double resident_mb = 0;
+  std::uint64_t hits = 0;        // distinct resident bricks used this frame
+  std::uint64_t misses = 0;      // distinct bricks reported missing this frame (unified misses)
+  std::uint64_t loads = 0;       // bricks made resident this frame
+  std::uint64_t evictions = 0;   // bricks evicted this frame
+  std::uint64_t pending = 0;     // loads in flight
+  std::uint64_t failed = 0;      // bricks that failed to load (reported once each)
+  double page_table_kb = 0;
+  int converged_at_frame = -1;   // first frame with no misses and nothing pending (-1: not yet)
+};
+
 struct Stats {
   int width = 0;
   int height = 0;
@@ -30,6 +45,7 @@ struct Stats {
   double depth_complexity_avg = 0;      // segments (SparseLeap) / nodes (octree) per ray
   std::uint32_t depth_complexity_max = 0;
   std::uint32_t depth_complexity_min = 0;
+  CacheStats cache;
 };
 
 std::string stats_to_json(const Stats& s);

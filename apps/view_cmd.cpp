@@ -1,0 +1,61 @@
+// `sparseleap view`: the interactive viewer (apps/viewer/). Built when GLFW, OpenGL and Dear ImGui
+// are found (SL_VIEWER); otherwise the subcommand still exists and says what the build lacks.
+#include <cstdio>
+#include <memory>
+
+#include "apps/commands.h"
+#ifdef SL_HAVE_VIEWER
+#include "apps/viewer/ui/viewer.h"
+#endif
+
+namespace sl::app {
+
+#ifdef SL_HAVE_VIEWER
+
+Runner add_view_command(CLI::App& app) {
+  auto o = std::make_shared<viewer::ViewerOptions>();
+  CLI::App* c = app.add_subcommand(
+      "view", "Interactive window: orbit/pan/zoom, method and mode switches, b-box and depth-complexity views, "
+              "transfer-function and label editing, stats, camera-path recording");
+  c->add_option("--volume", o->scene.volume, "Intensity volume: NRRD (.nrrd/.nhdr) or builtin:KIND[:XxYxZ[:SEED]]; default builtin:neurites (256^3)");
+  c->add_option("--labels", o->scene.labels, "Label volume (NRRD, integer type, same dims)");
+  c->add_option("--tf", o->scene.tf, "Transfer function JSON (also the editor's load/save file)");
+  c->add_option("--camera", o->scene.camera, "Camera JSON (the home view; R returns to it)");
+  c->add_option("--enable", o->scene.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
+  c->add_option("--size", o->size, "Rendered canvas WxH (the window adds a control panel at its left)")->capture_default_str();
+  c->add_option("--method", o->method, "none, bbox, octree or sparseleap (keys 1-4)")->capture_default_str();
+  c->add_option("--mode", o->mode, "dvr, mip, iso or labels (key M cycles)")->capture_default_str();
+  c->add_option("--view", o->view, "image or depth-complexity (key D)")->capture_default_str();
+  c->add_flag("--boxes", o->boxes, "Start with the occupancy-box overlay on (key B)");
+  c->add_option("--iso", o->iso, "Iso value; default 128 for u8, mid-range otherwise");
+  c->add_option("--step", o->step, "Sample distance in units of the smallest spacing")->capture_default_str();
+  c->add_option("--block", o->block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
+  c->add_flag("--ert", o->ert, "Early ray termination at opacity 0.99");
+  c->add_option("--scale", o->scale, "Render resolution relative to the canvas, (0, 1]")->capture_default_str();
+  c->add_option("--preview-scale", o->preview_scale, "Extra resolution factor while dragging, (0, 1]")->capture_default_str();
+  c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
+  c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
+  c->add_option("--screenshot", o->screenshot, "Save the window (with the UI) to this PNG after --frames frames, then exit");
+  c->add_option("--frames", o->frames, "Render this many frames, then exit (default 3 with --screenshot)");
+  c->add_option("--spin", o->spin, "Scripted runs: orbit this many degrees per frame (times moving views)");
+  c->add_option("--record-path", o->record_path, "Camera-path JSON for `bench --path`: K adds a keyframe; saved on exit");
+  c->add_flag("--no-stats", o->no_stats, "Start with the stats overlay hidden");
+  return [o] { return viewer::run_viewer(*o); };
+}
+
+#else
+
+Runner add_view_command(CLI::App& app) {
+  CLI::App* c = app.add_subcommand("view", "Interactive window (not in this build: needs GLFW, OpenGL and Dear ImGui)");
+  c->allow_extras();
+  return [] {
+    std::fprintf(stderr,
+                 "sparseleap: error: view: this build has no viewer (GLFW, OpenGL or Dear ImGui was not found; "
+                 "install libglfw3-dev libgl-dev libimgui-dev and reconfigure)\n");
+    return 1;
+  };
+}
+
+#endif
+
+}  // namespace sl::app

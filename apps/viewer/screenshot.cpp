@@ -1,0 +1,48 @@
+#include "apps/viewer/screenshot.h"
+
+#include <png.h>
+
+#include <cstdio>
+#include <filesystem>
+
+#include "core/error.h"
+
+namespace sl::viewer {
+
+void write_png_rgba8(const std::string& path, int width, int height, const std::vector<std::uint8_t>& rgba,
+                     bool bottom_up) {
+  if (width <= 0 || height <= 0 || rgba.size() != std::size_t(width) * std::size_t(height) * 4) {
+    throw InputError(path, "screenshot has no pixels");
+  }
+  png_image img{};
+  img.version = PNG_IMAGE_VERSION;
+  img.width = png_uint_32(width);
+  img.height = png_uint_32(height);
+  img.format = PNG_FORMAT_RGBA;
+  // A negative row stride makes libpng read rows bottom-up: the GL read-back needs no copy.
+  const png_int_32 stride = png_int_32(PNG_IMAGE_ROW_STRIDE(img)) * (bottom_up ? -1 : 1);
+  const std::string tmp = path + ".tmp";
+  if (!png_image_write_to_file(&img, tmp.c_str(), 0, rgba.data(), stride, nullptr)) {
+    std::remove(tmp.c_str());
+    throw InputError(path, std::string("cannot write PNG: ") + img.message);
+  }
+  std::error_code ec;
+  std::filesystem::rename(tmp, path, ec);
+  if (ec) {
+    std::remove(tmp.c_str());
+    throw InputError(path, "cannot write PNG: " + ec.message());
+  }
+}
+
+std::string next_screenshot_name(const std::string& dir) {
+  const std::filesystem::path base = dir.empty() ? std::filesystem::path(".") : std::filesystem::path(dir);
+  for (int i = 1; i < 100000; ++i) {
+    char name[64];
+    std::snprintf(name, sizeof name, "sparseleap-view-%03d.png", i);
+    const std::filesystem::path p = base / name;
+    if (!std::filesystem::exists(p)) return p.string();
+  }
+  return (base / "sparseleap-view.png").string();
+}
+
+}  // namespace sl::viewer

@@ -1,0 +1,393 @@
+// The viewer's loop: input -> plain state -> a render job for the worker thread -> the finished frame
+// as a texture behind the ImGui panels. The UI thread never renders, so input stays live during a
+// long frame; while the user drags, frames are rendered at a reduced "preview" resolution and the
+// full-resolution frame follows when the drag ends (progressive refinement).
+#include "apps/viewer/ui/viewer.h"
+
+#include <imgui.h>
+
+#include <algorithm>
+#include <atomic>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <numeric>
+#include <optional>
+
+#include <tbb/global_control.h>
+
+#include "apps/backend.h"
+#include "apps/viewer/label_state.h"
+#include "apps/viewer/orbit_controller.h"
+#include "apps/viewer/path_recorder.h"
+#include "apps/viewer/render_worker.h"
+#include "apps/viewer/screenshot.h"
+#include "apps/viewer/stats_rows.h"
+#include "apps/viewer/tf_editor.h"
+#include "apps/viewer/ui/panels.h"
+#include "apps/viewer/ui/window.h"
+#include "core/error.h"
+
+namespace sl::viewer {
+
+namespace {
+
+constexpr float kClickSlop = 3.0f;       // pixels a click may move and still be a click (label pick)
+constexpr double kWheelSettle = 0.25;    // seconds after the last wheel notch that still count as zooming
+constexpr int kSettleFrames = 3;         // UI frames before a scripted screenshot: auto-sized windows settle
+constexpr int kHistogramBins = 128;
+
+// Ctrl-C (or a SIGTERM) ends the loop normally, so a recorded camera path is still saved.
+std::atomic<bool> g_quit{false};
+extern "C" void on_quit_signal(int) { g_quit = true; }
+
+struct QuitSignals {
+  QuitSignals() {
+    g_quit = false;
+    std::signal(SIGINT, on_quit_signal);
+    std::signal(SIGTERM, on_quit_signal);
+  }
+  ~QuitSignals() {
+    std::signal(SIGINT, SIG_DFL);
+    std::signal(SIGTERM, SIG_DFL);
+  }
+};
+
+// Everything the loop edits, in one place; the panels get pointers into it.
+struct Session {
+  ViewSettings view;
+  std::optional<TfEditor> tf;
+  std::vector<float> histogram;
+  std::optional<LabelState> labels;
+  std::optional<OrbitController> orbit;
+  PathRecorder path;
+  PanelState panel;
+};
+
+// The frame on screen: what picking casts through, what the overlay describes.
+struct Shown {
+  bool valid = false;
+  Camera camera;
+  int width = 0;
+  int height = 0;
+  bool preview = false;
+  Stats stats;
+  std::string error;
+};
+
+// Mouse gestures on the canvas (not over a panel).
+struct Drag {
+  int button = -1;  // 0 left, 1 right, 2 middle; -1 none
+  float moved = 0.0f;
+  double last_wheel = -1e9;
+};
+
+// Options checked before the (possibly slow) data load, so a typo fails at once.
+ViewSettings settings_from(const ViewerOptions& o) {
+  ViewSettings v;
+  RenderSettings& rs = v.render;
+  app::parse_size(o.size, rs.width, rs.height);
+  rs.mode = parse_render_mode(o.mode);
+  rs.method = parse_skip_method(o.method);
+  rs.step = o.step;
+  rs.ert = o.ert;
+  rs.block = o.block;
+  rs.boxes_overlay = o.boxes;
+  if (o.view == "depth-complexity") {
+    rs.depth_complexity_view = true;
+  } else if (o.view != "image") {
+    throw InputError("--view", "unknown view '" + o.view + "' (expected image or depth-complexity)");
+  }
+  if (!(o.scale > 0.0f && o.scale <= 1.0f)) throw InputError("--scale", "must be in (0, 1]");
+  if (!(o.preview_scale > 0.0f && o.preview_scale <= 1.0f)) throw InputError("--preview-scale", "must be in (0, 1]");
+  if (o.frames < 0 || o.frames > 100000) throw InputError("--frames", "must be between 0 and 100000");
+  if (!std::isfinite(o.spin)) throw InputError("--spin", "must be a number of degrees");
+  v.scale = o.scale;
+  v.preview_scale = o.preview_scale;
+  v.show_stats = !o.no_stats;
+  return v;
+}
+
+void complete_settings(ViewSettings& v, const ViewerOptions& o, const app::LoadedScene& ls) {
+  // Same iso default as `render`, so a view can be reproduced there.
+  v.render.iso = !std::isnan(o.iso) ? o.iso
+                 : ls.volume.type() == VoxelType::U8 ? 128.0f
+                                                     : 0.5f * (ls.tf.vmin() + ls.tf.vmax());
+  v.has_labels = !ls.labels.empty();
+}
+
+void report(const std::vector<double>& ms, const Shown& shown) {
+  if (ms.empty() || !shown.valid) return;
+  const double rest = ms.size() > 1 ? std::accumulate(ms.begin() + 1, ms.end(), 0.0) / double(ms.size() - 1) : ms[0];
+  std::printf("view: %zu frames, first %.1f ms, then %.1f ms mean; last: %s\n", ms.size(), ms[0], rest,
+              stats_summary(shown.stats).c_str());
+}
+
+// Toggles the label under the cursor: the first visible label along the pixel's ray goes off; where
+// no visible label is hit, the first hidden one along the ray comes back on.
+void pick(Session& s, const app::LoadedScene& ls, const Shown& shown, float u, float v) {
+  if (!s.labels || !shown.valid) return;
+  LabelState& L = *s.labels;
+  const int px = int(u * float(shown.width));
+  const int py = int(v * float(shown.height));
+  const bool masked = L.masking() || s.view.render.mode == RenderMode::Labels;
+  std::uint32_t id = pick_label(ls.labels, shown.camera, shown.width, shown.height, px, py,
+                                masked ? &L.enabled() : nullptr);
+  if (id == 0 && masked) id = pick_label(ls.labels, shown.camera, shown.width, shown.height, px, py);
+  if (id == 0) {
+    s.panel.status = "no label under the cursor";
+    return;
+  }
+  const bool was_visible = !masked || L.is_enabled(id);
+  L.set_enabled(id, !was_visible);  // switches masking on: the toggle must show in dvr too
+  s.panel.search_id = int(id);
+  s.panel.status = "label " + std::to_string(id) + (was_visible ? " off" : " on");
+}
+
+void canvas_input(Session& s, Drag& d, const app::LoadedScene& ls, const Shown& shown, float x0, float w, float h,
+                  float pixel_ratio) {
+  ImGuiIO& io = ImGui::GetIO();
+  const ImVec2 m = io.MousePos;
+  const bool in_canvas = m.x >= x0 && m.x < x0 + w && m.y >= 0.0f && m.y < h;
+  OrbitController& orbit = *s.orbit;
+  if (!io.WantCaptureMouse && in_canvas) {
+    for (int b = 0; b < 3 && d.button < 0; ++b) {
+      if (ImGui::IsMouseClicked(b)) {
+        d.button = b;
+        d.moved = 0.0f;
+      }
+    }
+    if (io.MouseWheel != 0.0f) {
+      orbit.zoom(io.MouseWheel);
+      d.last_wheel = ImGui::GetTime();
+    }
+  }
+  if (d.button < 0) return;
+  const ImVec2 delta = io.MouseDelta;
+  d.moved += std::abs(delta.x) + std::abs(delta.y);
+  if (delta.x != 0.0f || delta.y != 0.0f) {
+    if (d.button == 2 || (d.button == 0 && io.KeyShift)) {
+      orbit.pan(delta.x * pixel_ratio, delta.y * pixel_ratio, int(h * pixel_ratio));
+    } else if (d.button == 0) {
+      orbit.orbit(delta.x, delta.y);
+    } else {
+      orbit.zoom(-delta.y * 0.05f);  // right drag: zoom for mice without a wheel
+    }
+  }
+  if (!io.MouseDown[d.button]) {
+    if (d.button == 0 && d.moved < kClickSlop && !io.KeyShift) pick(s, ls, shown, (m.x - x0) / w, m.y / h);
+    d.button = -1;
+  }
+}
+
+PanelActions key_input(Session& s) {
+  PanelActions a;
+  if (ImGui::GetIO().WantCaptureKeyboard) return a;
+  for (int key : {'1', '2', '3', '4', 'M', 'B', 'D', 'R', 'S', 'K'}) {
+    if (!ImGui::IsKeyPressed(key, false)) continue;
+    switch (apply_key(s.view, key)) {
+      case KeyAction::ResetView: a.reset_view = true; break;
+      case KeyAction::Screenshot: a.screenshot = true; break;
+      case KeyAction::Keyframe: a.keyframe = true; break;
+      default: break;
+    }
+  }
+  return a;
+}
+
+void save_screenshot(Window& win, const std::string& path, PanelState& st) {
+  int w = 0, h = 0;
+  const std::vector<std::uint8_t> px = win.read_back(w, h);
+  write_png_rgba8(path, w, h, px, /*bottom_up=*/true);
+  st.status = "saved " + path;
+  std::printf("view: saved %s (%dx%d)\n", path.c_str(), w, h);
+  std::fflush(stdout);
+}
+
+}  // namespace
+
+int run_viewer(const ViewerOptions& o) {
+  // Everything that can be wrong with the input is checked before a window opens.
+  std::unique_ptr<tbb::global_control> threads;
+  if (o.threads > 0) {
+    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
+  }
+  if (!o.screenshot.empty()) check_output_prefix(o.screenshot);
+  if (!o.record_path.empty()) check_output_prefix(o.record_path);
+  Session s;
+  s.view = settings_from(o);
+  const app::LoadedScene ls = app::load_scene(o.scene);
+  complete_settings(s.view, o, ls);
+  const int canvas_w = s.view.render.width;
+  const int canvas_h = s.view.render.height;
+  {
+    Scene probe;
+    probe.volume = &ls.volume;
+    probe.labels = ls.labels.empty() ? nullptr : &ls.labels;
+    probe.tf = &ls.tf;
+    probe.camera = ls.camera;
+    validate(probe, s.view.render);
+    make_ray_generator(ls.camera, canvas_w, canvas_h, o.scene.camera.empty() ? "camera" : o.scene.camera);
+  }
+  const app::Backend backend = app::choose_backend(o.backend);
+  float lo = 0.0f, hi = 1.0f;
+  data_domain(ls.volume, lo, hi);
+  s.tf.emplace(ls.tf, lo, hi);
+  s.histogram = value_histogram(ls.volume, kHistogramBins, s.tf->lo(), s.tf->hi());
+  if (!ls.labels.empty()) s.labels.emplace(ls.label_count, ls.enabled);
+  s.orbit.emplace(ls.camera);
+  if (!o.scene.tf.empty()) s.panel.tf_file = o.scene.tf;
+  if (!o.record_path.empty()) s.panel.path_file = o.record_path;
+
+  std::unique_ptr<Window> win;
+  try {
+    win = std::make_unique<Window>(canvas_w + int(kPanelWidth), canvas_h, "sparseleap view: " + ls.name);
+  } catch (const WindowError& e) {
+    std::fprintf(stderr, "sparseleap: error: view: %s\n", e.what());
+    return 1;
+  }
+  app::FrameRenderer renderer(backend);
+  FrameTexture texture;
+  // Declared after the window: destroyed first, so it never wakes a terminated GLFW.
+  RenderWorker worker(&ls.volume, ls.labels.empty() ? nullptr : &ls.labels,
+                      [&renderer](const Scene& sc, const RenderSettings& rs) { return renderer.render(sc, rs); },
+                      &Window::wake);
+
+  const bool scripted = o.frames > 0 || !o.screenshot.empty();
+  const int frames_wanted = o.frames > 0 ? o.frames : 3;
+  int frames_submitted = 0, frames_done = 0, settle = kSettleFrames;
+  std::vector<double> frame_ms;
+  std::shared_ptr<const TransferFunction> tf_snap;
+  std::uint64_t tf_rev = ~std::uint64_t(0);
+  std::shared_ptr<const LabelSet> label_snap;
+  std::uint64_t label_rev = ~std::uint64_t(0);
+  std::optional<RenderJob> last_job;
+  std::uint64_t next_id = 1;
+  Shown shown;
+  Drag drag;
+  bool interacting = false;
+
+  const QuitSignals quit_signals;
+  while (!win->should_close() && !g_quit) {
+    const bool busy = !worker.idle();
+    // The worker wakes the loop when a frame is done, so waiting long costs no latency; a short
+    // timeout only while the user interacts keeps ImGui's own feedback smooth.
+    win->begin_frame(interacting ? 0.016 : 0.1);
+    ImGuiIO& io = ImGui::GetIO();
+
+    if (std::optional<RenderResult> r = worker.take()) {
+      if (r->error.empty()) {
+        texture.upload(r->width, r->height, r->rgba8);
+        shown = Shown{true, r->camera, r->width, r->height, r->preview, std::move(r->stats), {}};
+        if (!r->preview) frame_ms.push_back(shown.stats.time_ms.total);
+      } else {
+        shown.error = r->error;
+        if (scripted) {
+          std::fprintf(stderr, "sparseleap: error: view: %s\n", r->error.c_str());
+          return 1;
+        }
+      }
+      if (scripted) ++frames_done;
+    }
+
+    const float win_w = io.DisplaySize.x, win_h = io.DisplaySize.y;
+    const float ratio = win->pixel_ratio();
+    const float x0 = kPanelWidth;
+    const float cw = std::max(win_w - x0, 1.0f), ch = std::max(win_h, 1.0f);
+
+    PanelModel model{&s.view, &*s.tf, &s.histogram, s.labels ? &*s.labels : nullptr, &s.path,
+                     shown.valid ? &shown.stats : nullptr};
+    PanelActions a = draw_control_panel(model, s.panel, kPanelWidth, win_h);
+    if (!texture.empty()) {
+      ImGui::GetBackgroundDrawList()->AddImage(texture.imgui_id(), ImVec2(x0, 0.0f), ImVec2(x0 + cw, ch));
+    }
+    if (s.view.show_stats) {
+      OverlayInfo info{io.Framerate, shown.width, shown.height, shown.preview, busy,
+                       shown.valid ? pending_loads(shown.stats) : 0, shown.error};
+      draw_stats_overlay(stats_rows(shown.stats), info, win_w, 0.0f);
+    }
+    if (!scripted) canvas_input(s, drag, ls, shown, x0, cw, ch, ratio);
+    const PanelActions keys = key_input(s);
+    if (a.reset_view || keys.reset_view) s.orbit->reset();
+    if (a.keyframe || keys.keyframe) {
+      s.panel.status = s.path.add(s.orbit->camera()) ? "keyframe " + std::to_string(s.path.size())
+                                                     : "keyframe unchanged: not added";
+    }
+    s.path.tick(ImGui::GetTime(), s.orbit->camera());
+    if (a.save_path) {
+      try {
+        s.path.save(s.panel.path_file);
+        s.panel.status = "saved " + s.panel.path_file + " (" + std::to_string(s.path.size()) + " keyframes)";
+      } catch (const std::exception& e) {
+        s.panel.status = e.what();
+      }
+    }
+
+    // The frame wanted now; submitted only when it differs from the last one asked for.
+    if (s.tf->revision() != tf_rev) {
+      tf_snap = std::make_shared<const TransferFunction>(s.tf->build());
+      tf_rev = s.tf->revision();
+    }
+    if (s.labels && s.labels->revision() != label_rev) {
+      label_snap = std::make_shared<const LabelSet>(s.labels->enabled());
+      label_rev = s.labels->revision();
+    }
+    interacting = !scripted && (drag.button >= 0 || ImGui::GetTime() - drag.last_wheel < kWheelSettle || a.dragging);
+    RenderJob job;
+    job.preview = interacting && s.view.preview_scale < 1.0f;
+    const float scale = s.view.scale * (job.preview ? s.view.preview_scale : 1.0f);
+    job.settings = s.view.render;
+    job.settings.width = std::max(1, int(std::lround(cw * ratio * scale)));
+    job.settings.height = std::max(1, int(std::lround(ch * ratio * scale)));
+    job.tf = tf_snap;
+    // Labels mode always gets the set (else the renderer scans the label volume for "all" per frame).
+    const bool use_labels = s.labels && (s.labels->masking() || job.settings.mode == RenderMode::Labels);
+    job.enabled = use_labels ? label_snap : nullptr;
+    if (scripted) {
+      // One job at a time, each a real frame: the scripted run measures what the viewer renders.
+      if (frames_submitted < frames_wanted && frames_submitted == frames_done && worker.idle()) {
+        if (frames_submitted > 0 && o.spin != 0.0f) {
+          s.orbit->orbit(o.spin * 3.14159265f / 180.0f / OrbitController::kRadiansPerPixel, 0.0f);
+        }
+        job.camera = s.orbit->camera();
+        job.id = next_id++;
+        worker.submit(job);
+        ++frames_submitted;
+      }
+    } else {
+      job.camera = s.orbit->camera();
+      const bool changed = !last_job || !same_camera(job.camera, last_job->camera) ||
+                           !same_settings(job.settings, last_job->settings) || job.tf != last_job->tf ||
+                           job.enabled != last_job->enabled || job.preview != last_job->preview;
+      // While bricks stream in, keep rendering the same view: each frame is more complete.
+      const bool refine = shown.valid && pending_loads(shown.stats) > 0 && worker.idle();
+      if (changed || refine) {
+        job.id = next_id++;
+        last_job = job;
+        worker.submit(std::move(job));
+      }
+    }
+
+    win->end_frame();
+    if (a.screenshot || keys.screenshot) {
+      try {
+        save_screenshot(*win, next_screenshot_name("."), s.panel);
+      } catch (const std::exception& e) {
+        s.panel.status = e.what();
+      }
+    }
+    if (scripted && frames_done >= frames_wanted && --settle <= 0) {
+      if (!o.screenshot.empty()) save_screenshot(*win, o.screenshot, s.panel);
+      break;
+    }
+    win->swap();
+  }
+  if (!o.record_path.empty() && s.path.size() > 0) {
+    s.path.save(o.record_path);
+    std::printf("view: saved %s (%zu keyframes)\n", o.record_path.c_str(), s.path.size());
+  }
+  report(frame_ms, shown);
+  return 0;
+}
+
+}  // namespace sl::viewer

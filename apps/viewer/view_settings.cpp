@@ -1,0 +1,54 @@
+#include "apps/viewer/view_settings.h"
+
+namespace sl::viewer {
+
+RenderMode next_mode(RenderMode m, bool has_labels) {
+  switch (m) {
+    case RenderMode::Dvr: return RenderMode::Mip;
+    case RenderMode::Mip: return RenderMode::Iso;
+    case RenderMode::Iso: return has_labels ? RenderMode::Labels : RenderMode::Dvr;
+    case RenderMode::Labels: return RenderMode::Dvr;
+  }
+  return RenderMode::Dvr;
+}
+
+KeyAction apply_key(ViewSettings& v, int key) {
+  if (key >= 'a' && key <= 'z') key -= 'a' - 'A';
+  switch (key) {
+    case '1':
+    case '2':
+    case '3':
+    case '4': v.render.method = kMethods[key - '1']; return KeyAction::Changed;
+    case 'M': v.render.mode = next_mode(v.render.mode, v.has_labels); return KeyAction::Changed;
+    case 'B': v.render.boxes_overlay = !v.render.boxes_overlay; return KeyAction::Changed;
+    case 'D': v.render.depth_complexity_view = !v.render.depth_complexity_view; return KeyAction::Changed;
+    case 'R': return KeyAction::ResetView;
+    case 'S': return KeyAction::Screenshot;
+    case 'K': return KeyAction::Keyframe;
+    default: return KeyAction::None;
+  }
+}
+
+namespace {
+
+bool same_lod(const RenderSettings& a, const RenderSettings& b) {
+  const float* la = lod_bias_of(a);
+  const float* lb = lod_bias_of(b);
+  return !la || *la == *lb;
+}
+
+}  // namespace
+
+bool same_settings(const RenderSettings& a, const RenderSettings& b) {
+  return a.width == b.width && a.height == b.height && a.mode == b.mode && a.method == b.method &&
+         a.step == b.step && a.iso == b.iso && a.ert == b.ert && a.block == b.block && a.gap_eps == b.gap_eps &&
+         a.depth_complexity_view == b.depth_complexity_view && a.boxes_overlay == b.boxes_overlay &&
+         same_lod(a, b);
+}
+
+bool same_camera(const Camera& a, const Camera& b) {
+  return a.eye == b.eye && a.center == b.center && a.up == b.up && a.fov_deg == b.fov_deg && a.height == b.height &&
+         a.projection == b.projection;
+}
+
+}  // namespace sl::viewer

@@ -1,0 +1,478 @@
+#include "cache/out_of_core.h"
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <functional>
+
+#include "cache/virtual_sampler.h"
+#include "core/cast_frame.h"
+#include "core/culling.h"
+#include "core/error.h"
+#include "core/occupancy_geometry.h"
+#include "core/overlay.h"
+#include "core/segment_list_builder.h"
+#include "core/visibility_order.h"
+
+namespace sl {
+
+struct OutOfCoreRenderer::Cull {
+  CullParams params;
+  std::uint64_t key = 0;
+};
+
+namespace {
+
+std::uint64_t mix(std::uint64_t h, std::uint64_t v) {
+  h ^= v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
+  return h;
+}
+std::uint64_t float_bits(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+
+int log2_exact(int v) {
+  int l = 0;
+  while ((1 << l) < v) ++l;
+  return l;
+}
+
+}  // namespace
+
+OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source, const OutOfCoreSettings& settings,
+                                     int block)
+    : source_(std::move(source)),
+      settings_(settings),
+      layout_(BrickLayout::make(source_->desc(), settings.brick, source_->name())),
+      block_(block),
+      page_table_(layout_),
+      cache_(layout_, source_->desc().type,
+             source_->has_labels() ? std::optional<VoxelType>(source_->label_type()) : std::nullopt,
+             settings.cache_mb),
+      misses_(1u << 16),
+      loader_(source_, layout_, settings.loader_threads),
+      tree_(make_block_grid(source_->desc().dims, source_->desc().spacing, block), OccupancyClass::Unknown) {
+  validate_block_size(block);
+  if (block > settings.brick) throw InputError("--block", "the culling block must not exceed the brick size (--brick)");
+  brick_depth_offset_ = log2_exact(settings.brick / block);
+  if (settings.lod >= layout_.levels) {
+    throw InputError("--lod", "level " + std::to_string(settings.lod) + " does not exist (the volume has " +
+                                  std::to_string(layout_.levels) + " levels)");
+  }
+}
+
+OutOfCoreRenderer::~OutOfCoreRenderer() = default;
+
+// Culling block (level l, coordinate c) is tree node depth levels() - l covering level-0 blocks
+// [c * 2^l, (c + 1) * 2^l): a node's metadata comes from the level whose culling blocks it matches, so
+// the tree refines exactly as far as the level of detail the rays ask for.
+void OutOfCoreRenderer::set_node(int depth, ivec3 block_lo, OccupancyClass cls) {
+  std::uint32_t n = tree_.root();
+  while (tree_.node(n).depth < depth) {
+    if (tree_.is_leaf(n)) tree_.refine(n);
+    const OccupancyNode& nd = tree_.node(n);
+    const int half = tree_.size_blocks(n) / 2;
+    const int oct = int(block_lo.x >= nd.lo.x + half) | (int(block_lo.y >= nd.lo.y + half) << 1) |
+                    (int(block_lo.z >= nd.lo.z + half) << 2);
+    n = tree_.child(n, oct);
+  }
+  if (tree_.is_leaf(n)) {
+    tree_.set_leaf_class(n, cls);
+  } else {
+    // Finer nodes exist: fill only their UNKNOWN leaves (the finer classes stay).
+    std::vector<std::uint32_t> stack{n};
+    while (!stack.empty()) {
+      const std::uint32_t m = stack.back();
+      stack.pop_back();
+      if (tree_.is_leaf(m)) {
+        if (tree_.node(m).cls == OccupancyClass::Unknown && !tree_.outside(m)) tree_.set_leaf_class(m, cls);
+      } else {
+        for (int o = 0; o < 8; ++o) stack.push_back(tree_.child(m, o));
+      }
+    }
+  }
+  tree_.touch(n, frame_);
+}
+
+void OutOfCoreRenderer::apply_metadata(std::uint64_t key, const BlockMetadata& m, const Cull& cull) {
+  BrickId id;
+  id.bits = key;
+  const int l = id.level();
+  const int depth = tree_.levels() - l;
+  if (depth < 0) return;
+  set_node(depth, id.coord() * (1 << l), classify_block(m, cull.params));
+}
+
+std::uint32_t OutOfCoreRenderer::node_for_brick(BrickId id) const {
+  const int depth = std::max(0, tree_.levels() - id.level() - brick_depth_offset_);
+  const BlockGrid& g = tree_.grid();
+  // First level-0 block of the brick: brick origin (level voxels) * 2^level / block.
+  const glm::i64vec3 v = glm::i64vec3(layout_.brick_origin(id)) * (std::int64_t(1) << id.level()) / std::int64_t(block_);
+  const ivec3 b = glm::clamp(ivec3(v), ivec3(0), g.blocks - 1);
+  std::uint32_t n = tree_.root();
+  while (!tree_.is_leaf(n) && tree_.node(n).depth < depth) {
+    const OccupancyNode& nd = tree_.node(n);
+    const int half = tree_.size_blocks(n) / 2;
+    n = tree_.child(n, int(b.x >= nd.lo.x + half) | (int(b.y >= nd.lo.y + half) << 1) |
+                           (int(b.z >= nd.lo.z + half) << 2));
+  }
+  return n;
+}
+
+// Metadata of the (B / block)³ culling blocks a brick holds, at its level: min/max over each block
+// dilated by one level voxel (the apron supplies the neighbours) and the labels present (DESIGN.md §3).
+void OutOfCoreRenderer::compute_metadata(const LoadedBrick& b, const Cull& cull) {
+  const int l = b.id.level();
+  const int k = block_;
+  const int per = layout_.brick_size / k;
+  const ivec3 dims = layout_.dims(l);
+  const ivec3 origin = layout_.brick_origin(b.id);
+  const int S = layout_.stored_size();
+  const VoxelType vt = source_->desc().type;
+  const bool labels = source_->has_labels() && !b.labels.empty();
+  const VolumeView iv{b.intensity.data(), ivec3(S), vec3(1.0f), vt};
+  const VolumeView lv{labels ? b.labels.data() : nullptr, ivec3(S), vec3(1.0f), source_->label_type()};
+  for (int sz = 0; sz < per; ++sz)
+    for (int sy = 0; sy < per; ++sy)
+      for (int sx = 0; sx < per; ++sx) {
+        const ivec3 lo = origin + ivec3(sx, sy, sz) * k;
+        if (lo.x >= dims.x || lo.y >= dims.y || lo.z >= dims.z) continue;  // wholly outside the level
+        const ivec3 hi = glm::min(lo + k, dims);
+        const ivec3 a = glm::max(lo - 1, ivec3(0)) - origin + 1;  // stored indices, inclusive
+        const ivec3 e = glm::min(hi, dims - 1) - origin + 1;
+        BlockMetadata m;
+        m.min = 3.4e38f;
+        m.max = -3.4e38f;
+        m.has_labels = labels;
+        m.computed = true;
+        for (int z = a.z; z <= e.z; ++z)
+          for (int y = a.y; y <= e.y; ++y)
+            for (int x = a.x; x <= e.x; ++x) {
+              const float v = iv.value(x, y, z);
+              m.min = std::min(m.min, v);
+              m.max = std::max(m.max, v);
+              if (labels) m.labels.push_back(lv.label(x, y, z));
+            }
+        std::sort(m.labels.begin(), m.labels.end());
+        m.labels.erase(std::unique(m.labels.begin(), m.labels.end()), m.labels.end());
+        const std::uint64_t key = BrickId::pack(l, b.id.coord() * per + ivec3(sx, sy, sz)).bits;
+        apply_metadata(key, m, cull);
+        metadata_[key] = std::move(m);
+      }
+}
+
+void OutOfCoreRenderer::upload(const Cull& cull) {
+  LoaderBatch batch = loader_.collect(settings_.upload_budget);
+  for (const BrickFailure& f : batch.failures) {
+    // Reported once (the loader never retries a failed brick); rendered as missing from now on.
+    std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
+    failures_reported_.push_back(f.reason);
+    metadata_pending_.erase(f.id.bits);
+    page_table_.set(f.id, PageEntry::empty());
+  }
+  for (LoadedBrick& b : batch.bricks) {
+    if (metadata_pending_.erase(b.id.bits)) compute_metadata(b, cull);
+    if (!page_table_.get(b.id).is_resident()) {
+      if (auto a = cache_.allocate(b.id, frame_)) {
+        if (a->evicted.valid()) page_table_.clear(a->evicted);
+        auto vox = cache_.slot_voxels(a->slot);
+        std::memcpy(vox.data(), b.intensity.data(), std::min(vox.size(), b.intensity.size()));
+        if (cache_.has_labels() && !b.labels.empty()) {
+          auto lab = cache_.slot_labels(a->slot);
+          std::memcpy(lab.data(), b.labels.data(), std::min(lab.size(), b.labels.size()));
+        }
+        page_table_.set(b.id, PageEntry::resident(a->slot));
+        ++loads_this_frame_;
+      }
+      // else: every slot is in use this frame; the brick is missed again and reloaded later.
+    }
+    loader_.recycle(std::move(b));
+  }
+}
+
+// Paper §8.2: each missed brick means what the occupancy tree says of its region. Unknown → its
+// metadata (from cache, or by loading the brick), then cull and grow; known non-empty and not
+// resident → load; known empty → map it Empty. Unknown regions never load data for sampling alone.
+void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
+  const std::vector<BrickId> ids = misses_.drain();
+  std::vector<BrickId> load;
+  const int per = layout_.brick_size / block_;
+  for (const BrickId id : ids) {
+    if (loader_.failed(id)) continue;
+    const std::uint32_t n = node_for_brick(id);
+    const OccupancyNode& nd = tree_.node(n);
+    const bool leaf = tree_.is_leaf(n);
+    const bool unknown = leaf ? nd.cls == OccupancyClass::Unknown : nd.count[int(OccupancyClass::Unknown)] > 0;
+    if (unknown) {
+      // Cached metadata regrows a retired or re-culled region without touching the data.
+      bool cached = true;
+      std::vector<std::uint64_t> keys;
+      const ivec3 dims = layout_.dims(id.level());
+      for (int z = 0; z < per && cached; ++z)
+        for (int y = 0; y < per && cached; ++y)
+          for (int x = 0; x < per && cached; ++x) {
+            const ivec3 c = id.coord() * per + ivec3(x, y, z);
+            if (c.x * block_ >= dims.x || c.y * block_ >= dims.y || c.z * block_ >= dims.z) continue;
+            const std::uint64_t key = BrickId::pack(id.level(), c).bits;
+            if (!metadata_.count(key)) cached = false;
+            keys.push_back(key);
+          }
+      if (cached) {
+        for (std::uint64_t key : keys) apply_metadata(key, metadata_.at(key), cull);
+      } else if (metadata_pending_.insert(id.bits).second) {
+        load.push_back(id);
+      }
+      continue;
+    }
+    const OccupancyClass cls = leaf ? nd.cls : conservative_class(nd.count);
+    const PageEntry e = page_table_.get(id);
+    if (cls == OccupancyClass::Empty) {
+      if (!e.is_resident() && e.state() != PageEntry::State::Empty) {
+        page_table_.set(id, PageEntry::empty());
+        empty_entries_.push_back(id);
+      }
+    } else if (!e.is_resident()) {
+      load.push_back(id);
+    }
+  }
+  loader_.request(load);
+}
+
+void OutOfCoreRenderer::recull(const Cull& cull) {
+  // Transfer function or labels changed: rebuild the tree from the cached metadata, coarse before fine
+  // (nothing is recomputed or reloaded), and forget Empty mappings made under the old culling.
+  tree_ = OccupancyTree(tree_.grid(), OccupancyClass::Unknown);
+  std::vector<std::pair<std::uint64_t, const BlockMetadata*>> entries;
+  entries.reserve(metadata_.size());
+  for (const auto& [key, m] : metadata_) entries.emplace_back(key, &m);
+  std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
+    BrickId x, y;
+    x.bits = a.first;
+    y.bits = b.first;
+    return x.level() != y.level() ? x.level() > y.level() : a.first < b.first;
+  });
+  for (const auto& [key, m] : entries) apply_metadata(key, *m, cull);
+  for (const BrickId id : empty_entries_) {
+    if (page_table_.get(id).state() == PageEntry::State::Empty) page_table_.clear(id);
+  }
+  empty_entries_.clear();
+}
+
+void OutOfCoreRenderer::touch_used_bricks() {
+  for (std::uint32_t s = 0; s < cache_.slot_count(); ++s) {
+    if (cache_.last_used(s) != frame_) continue;
+    const BrickId id = cache_.brick_in(s);
+    if (id.valid()) tree_.touch(node_for_brick(id), frame_);
+  }
+}
+
+std::size_t OutOfCoreRenderer::metadata_blocks_in(const Box3& box) const {
+  std::size_t n = 0;
+  for (const auto& [key, m] : metadata_) {
+    BrickId id;
+    id.bits = key;
+    const vec3 s = layout_.level_spacing(id.level()) * float(block_);
+    const vec3 lo = vec3(id.coord()) * s, hi = lo + s;
+    if (lo.x < box.hi.x && lo.y < box.hi.y && lo.z < box.hi.z && hi.x > box.lo.x && hi.y > box.lo.y &&
+        hi.z > box.lo.z) {
+      ++n;
+    }
+  }
+  return n;
+}
+
+namespace {
+
+template <class T, class L>
+void cast_virtual(const CastParams& p, VirtualSampler<T, L> sampler, const RayGenerator& gen, const Box3& vbox,
+                  const SkipInputs& skip, Frame& frame) {
+  const RayCaster<VirtualSampler<T, L>> caster{p, sampler};
+  cast_frame(caster, gen, vbox, skip, frame);
+}
+
+template <class T>
+void cast_labels_typed(VoxelType lt, bool has_labels, const CastParams& p, const BrickLayout* layout,
+                       const PageTableView& pt, const BrickCacheView& cv, const MissBufferView& mv, std::uint32_t frame,
+                       const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip, Frame& f) {
+  auto make = [&](auto tag) {
+    using L = decltype(tag);
+    VirtualSampler<T, L> s{layout, pt, cv, mv, frame, has_labels};
+    cast_virtual<T, L>(p, s, gen, vbox, skip, f);
+  };
+  switch (has_labels ? lt : VoxelType::U8) {
+    case VoxelType::U8: make(std::uint8_t{}); break;
+    case VoxelType::U16: make(std::uint16_t{}); break;
+    default: make(std::uint32_t{}); break;
+  }
+}
+
+}  // namespace
+
+Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSettings& s) {
+  Timer total;
+  ++frame_;
+  if (s.method != SkipMethod::SparseLeap && s.method != SkipMethod::None) {
+    throw InputError("--method", std::string("out-of-core rendering supports sparseleap and none, not ") +
+                                     to_string(s.method));
+  }
+  if (s.block != block_) throw InputError("--block", "changed after the out-of-core renderer was created");
+  const VolumeDesc& d = source_->desc();
+  Frame frame;
+  frame.image = Image(s.width, s.height);
+  Stats& st = frame.stats;
+  st.width = s.width;
+  st.height = s.height;
+  st.method = to_string(s.method);
+  st.mode = to_string(s.mode);
+
+  // Culling inputs; a change re-culls from cached metadata.
+  Cull cull;
+  cull.params.mode = s.mode;
+  cull.params.tf = scene.tf;
+  cull.params.iso = s.iso;
+  cull.params.enabled = scene.enabled;
+  std::uint64_t key = mix(mix(std::uint64_t(s.mode), float_bits(s.iso)), std::uint64_t(scene.enabled != nullptr));
+  for (const TfPoint& q : scene.tf->points()) {
+    key = mix(key, float_bits(q.value));
+    for (int c = 0; c < 4; ++c) key = mix(key, float_bits(q.rgba[c]));
+  }
+  if (scene.enabled) {
+    for (std::uint32_t w : scene.enabled->words()) key = mix(key, w);
+  }
+  Timer t;
+  if (cull_valid_ && key != cull_key_) recull(cull);
+  cull_key_ = key;
+  cull_valid_ = true;
+
+  const std::uint64_t evictions_before = cache_.evictions();
+  loads_this_frame_ = 0;
+  upload(cull);
+  resolve_misses(cull);
+  tree_.propagate();
+  tree_.collapse_homogeneous();
+  st.time_ms.metadata = t.ms();
+
+  t = Timer();
+  tree_.retire_unused(frame_, settings_.retire_frames);
+  st.time_ms.tree = t.ms();
+  st.tree_nodes = tree_.node_count();
+  st.metadata_blocks = metadata_.size();
+
+  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
+  SkipInputs skip;
+  skip.method = s.method;
+  SegmentListBuffer lists;
+  OccupancyGeometry geometry;
+  if (s.method == SkipMethod::SparseLeap) {
+    t = Timer();
+    geometry = build_occupancy_geometry(tree_);
+    st.boxes = geometry.boxes.size();
+    st.time_ms.geometry = t.ms();
+    t = Timer();
+    const std::vector<VisibilityEntry> order = build_visibility_order(tree_, geometry, view_point(gen));
+    st.time_ms.order = t.ms();
+    t = Timer();
+    lists.reset(s.width, s.height, CpuRenderer::kListCapacity);
+    const SegmentListStats ls = build_segment_lists(geometry, order, gen, lists, s.gap_eps * s.step * d.min_spacing());
+    // (the short-gap threshold stays in level-0 steps: conservative for any coarser grid)
+    st.time_ms.lists = t.ms();
+    st.events = ls.events;
+    st.list_overflows = ls.overflows;
+    skip.lists = lists.view();
+  }
+
+  // Level of detail and the frame's sample grid. One global grid per frame keeps every method's
+  // samples identical (DESIGN.md §8); its spacing follows the finest level any sample can use this
+  // frame (the level at the volume's nearest point), so a view of a whole terabyte volume does not
+  // sample coarse bricks 2^l times more densely than their voxels.
+  LodParams lod;
+  lod.levels = layout_.levels;
+  lod.pinned = settings_.lod;
+  const float pixel = 2.0f * gen.half_h / float(s.height);
+  if (gen.orthographic) {
+    lod.pixel_size = pixel;
+  } else {
+    lod.pixel_angle = pixel;
+  }
+  lod.inv_voxel = settings_.lod_bias / d.min_spacing();
+  const vec3 nearest = glm::clamp(gen.eye, vec3(0.0f), d.extent());
+  const int finest = gen.orthographic ? lod.level_at(0.0f) : lod.level_at(glm::length(nearest - gen.eye));
+  const float step = s.step * float(1 << finest);
+
+  CastParams p;
+  p.mode = s.mode;
+  p.dt = step * d.min_spacing();
+  p.inv_dt = 1.0f / p.dt;
+  p.iso = s.iso;
+  p.ert = s.ert;
+  p.spacing = d.spacing;
+  p.tf = scene.tf->view(step);
+  p.label_mask = scene.enabled != nullptr && source_->has_labels() && s.mode != RenderMode::Labels;
+  if (scene.enabled) p.labels = scene.enabled->view();
+  p.lod = lod;
+
+  misses_.clear();
+  const PageTableView ptv = page_table_.view();
+  const BrickCacheView cv = cache_.view();
+  const Box3 vbox{vec3(0.0f), d.extent()};
+  switch (d.type) {
+    case VoxelType::U8:
+      cast_labels_typed<std::uint8_t>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv,
+                                      misses_.view(), frame_, gen, vbox, skip, frame);
+      break;
+    case VoxelType::U16:
+      cast_labels_typed<std::uint16_t>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv,
+                                       misses_.view(), frame_, gen, vbox, skip, frame);
+      break;
+    case VoxelType::U32:
+      cast_labels_typed<std::uint32_t>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv,
+                                       misses_.view(), frame_, gen, vbox, skip, frame);
+      break;
+    case VoxelType::F32:
+      cast_labels_typed<float>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv, misses_.view(),
+                               frame_, gen, vbox, skip, frame);
+      break;
+  }
+  touch_used_bricks();
+
+  CacheStats& c = st.cache;
+  c.present = true;
+  c.frame = frame_;
+  c.resident_mb = cache_.resident_mb();
+  for (std::uint32_t sl = 0; sl < cache_.slot_count(); ++sl) c.hits += cache_.last_used(sl) == frame_ ? 1u : 0u;
+  c.misses = misses_.size();
+  c.loads = loads_this_frame_;
+  c.evictions = cache_.evictions() - evictions_before;
+  c.pending = loader_.pending();
+  c.failed = loader_.failed_count();
+  c.page_table_kb = page_table_.memory_kb();
+  converged_ = c.misses == 0 && c.pending == 0 && metadata_pending_.empty();
+  if (!converged_) {
+    converged_at_ = -1;
+  } else if (converged_at_ < 0) {
+    converged_at_ = int(frame_);
+  }
+  c.converged_at_frame = converged_at_;
+
+  if (s.depth_complexity_view) {
+    draw_depth_complexity(frame.image, float(st.depth_complexity_min), float(st.depth_complexity_avg),
+                          float(st.depth_complexity_max));
+  }
+  if (s.boxes_overlay && s.method == SkipMethod::SparseLeap) draw_boxes(frame.image, geometry.boxes, gen);
+  st.time_ms.total = total.ms();
+  return frame;
+}
+
+Frame render_frames(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSettings& s, int frames,
+                    const std::function<void(const Frame&)>& on_frame) {
+  Frame last;
+  for (int i = 0; i < frames; ++i) {
+    last = r.render(scene, s);
+    if (on_frame) on_frame(last);
+  }
+  return last;
+}
+
+}  // namespace sl

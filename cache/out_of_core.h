@@ -1,0 +1,99 @@
+// The out-of-core, ray-guided frame loop (DESIGN.md §4–§5, paper §8.2–§8.3): the CPU caster reads
+// through the page table and brick cache; the misses it reports drive metadata, culling, the lazy
+// growth of the occupancy tree and brick loading; usage drives LRU eviction and tree retirement.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <unordered_map>
+#include <unordered_set>
+#include <vector>
+
+#include "cache/brick.h"
+#include "cache/brick_cache.h"
+#include "cache/brick_loader.h"
+#include "cache/miss_buffer.h"
+#include "cache/page_table.h"
+#include "cache/volume_source.h"
+#include "core/block_metadata.h"
+#include "core/cpu_renderer.h"
+#include "core/occupancy_tree.h"
+
+namespace sl {
+
+struct OutOfCoreSettings {
+  int brick = kDefaultBrickSize;     // payload edge B (the culling block must not exceed it)
+  std::size_t cache_mb = 1024;       // brick cache budget
+  float lod_bias = 1.0f;             // > 1: coarser levels (fewer bricks), < 1: finer
+  int lod = -1;                      // >= 0: pin every sample to this level
+  std::uint32_t retire_frames = 60;  // tree nodes unused this long are retired (LRU)
+  std::size_t upload_budget = 512;   // bricks made resident per frame at most
+  int loader_threads = 0;            // 0: min(4, cores)
+};
+
+struct OutOfCoreScene {
+  const TransferFunction* tf = nullptr;
+  const LabelSet* enabled = nullptr;  // label mask (dvr/mip/iso) or the shown set (labels mode)
+  Camera camera;
+};
+
+class OutOfCoreRenderer {
+ public:
+  // Throws InputError for a cache too small for one brick per level, bad brick/block sizes.
+  OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source, const OutOfCoreSettings& settings, int block);
+  ~OutOfCoreRenderer();
+
+  // One frame: make finished loads resident, resolve last frame's misses, grow or retire the tree,
+  // build the occupancy geometry and segment lists (SparseLeap) and cast. Never waits for loads.
+  Frame render(const OutOfCoreScene& scene, const RenderSettings& settings);
+
+  bool converged() const { return converged_; }
+  std::uint32_t frame() const { return frame_; }
+  const OccupancyTree& tree() const { return tree_; }
+  const BrickLayout& layout() const { return layout_; }
+  std::size_t metadata_blocks() const { return metadata_.size(); }
+  // Level-0 culling blocks whose metadata exists inside the world box (tests: unseen regions have none).
+  std::size_t metadata_blocks_in(const Box3& box) const;
+  std::size_t resident_bricks() const { return cache_.resident_count(); }
+  std::size_t failed_bricks() const { return loader_.failed_count(); }
+  void wait_for_loads() { loader_.wait_idle(); }
+
+ private:
+  struct Cull;
+  void upload(const Cull& cull);
+  void resolve_misses(const Cull& cull);
+  void compute_metadata(const LoadedBrick& b, const Cull& cull);
+  void apply_metadata(std::uint64_t key, const BlockMetadata& m, const Cull& cull);
+  void set_node(int depth, ivec3 block_lo, OccupancyClass cls);
+  std::uint32_t node_for_brick(BrickId id) const;
+  void recull(const Cull& cull);
+  void touch_used_bricks();
+
+  std::shared_ptr<const VolumeSource> source_;
+  OutOfCoreSettings settings_;
+  BrickLayout layout_;
+  int block_ = 16;
+  int brick_depth_offset_ = 1;  // log2(brick / block)
+  PageTable page_table_;
+  BrickCache cache_;
+  MissBuffer misses_;
+  BrickLoader loader_;
+  OccupancyTree tree_;
+  std::unordered_map<std::uint64_t, BlockMetadata> metadata_;  // key: BrickId::pack(level, culling block)
+  std::unordered_set<std::uint64_t> metadata_pending_;         // bricks requested for their metadata
+  std::vector<BrickId> empty_entries_;                         // page entries set Empty by culling
+  std::uint64_t cull_key_ = 0;
+  bool cull_valid_ = false;
+  std::uint32_t frame_ = 0;
+  bool converged_ = false;
+  int converged_at_ = -1;
+  std::uint64_t loads_this_frame_ = 0;
+  std::vector<std::string> failures_reported_;
+};
+
+// Out-of-core rendering of one view for `frames` frames (the cache fills, the image converges);
+// returns the last frame. `on_frame` (optional) sees every frame.
+Frame render_frames(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSettings& s, int frames,
+                    const std::function<void(const Frame&)>& on_frame = {});
+
+}  // namespace sl
