@@ -171,6 +171,17 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
     failures_reported_.push_back(f.reason);
     metadata_pending_.erase(f.id.bits);
     page_table_.set(f.id, PageEntry::empty());
+    // Its region's occupancy can never be known: call it NON_EMPTY (conservative; the data read as
+    // missing), so rays stop reporting it and the view can converge.
+    const int per = layout_.brick_size / block_;
+    for (int z = 0; z < per; ++z)
+      for (int y = 0; y < per; ++y)
+        for (int x = 0; x < per; ++x) {
+          const ivec3 c = f.id.coord() * per + ivec3(x, y, z);
+          const ivec3 dims = layout_.dims(f.id.level());
+          if (c.x * block_ >= dims.x || c.y * block_ >= dims.y || c.z * block_ >= dims.z) continue;
+          set_node(tree_.levels() - f.id.level(), c * (1 << f.id.level()), OccupancyClass::NonEmpty);
+        }
   }
   for (LoadedBrick& b : batch.bricks) {
     if (metadata_pending_.erase(b.id.bits)) compute_metadata(b, cull);
