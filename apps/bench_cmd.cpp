@@ -12,7 +12,11 @@
 
 #include <tbb/global_control.h>
 
+#include <optional>
+
 #include "apps/backend.h"
+#include "cache/out_of_core.h"
+#include "cache/volume_source.h"
 #include "apps/commands.h"
 #include "apps/scene_loader.h"
 #include "core/camera_path.h"
@@ -38,6 +42,11 @@ struct BenchOptions {
   int warmup = 1;
   int threads = 0;
   bool ert = false;
+  // Out of core.
+  std::size_t cache_mb = 0;
+  int brick = 32;
+  float lod_bias = 1.0f;
+  int max_frames_per_view = 40;
 };
 
 struct FrameRecord {
@@ -109,6 +118,86 @@ Summary summarize(const std::vector<FrameRecord>& recs) {
   return s;
 }
 
+// Out of core: every view of the path is rendered until it converges (no misses, nothing pending) or
+// --max-frames-per-view; reports frames to convergence per view, loads, tree and page-table size.
+int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
+  std::shared_ptr<const VolumeSource> source;
+  TransferFunction tf;
+  std::optional<LabelSet> enabled;
+  std::string name = o.scene.volume;
+  if (is_procedural_spec(o.scene.volume)) {
+    source = parse_volume_spec(o.scene.volume);
+    if (!o.scene.enable.empty()) throw InputError("--enable", "label subsets of procedural volumes are not supported");
+    tf = o.scene.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.scene.tf);
+  } else {
+    LoadedScene ls = load_scene(o.scene);
+    name = ls.name;
+    tf = ls.tf;
+    enabled = ls.enabled;
+    auto vol = std::make_shared<const Volume>(std::move(ls.volume));
+    std::shared_ptr<const Volume> lab;
+    if (!ls.labels.empty()) lab = std::make_shared<const Volume>(std::move(ls.labels));
+    source = std::make_shared<MemoryVolumeSource>(vol, lab, name);
+  }
+  rs.iso = std::isnan(o.iso) ? 128.0f : o.iso;
+  rs.method = SkipMethod::SparseLeap;
+  CameraPath path = o.path.empty() ? orbit_path(source->desc().extent(), o.orbit) : load_camera_path(o.path);
+  OutOfCoreSettings os;
+  os.cache_mb = o.cache_mb > 0 ? o.cache_mb : 1024;
+  os.brick = o.brick;
+  os.lod_bias = o.lod_bias;
+  OutOfCoreRenderer renderer(source, os, rs.block);
+  std::printf("bench (out of core): %s, %dx%d, %d views, cache %zu MB, brick %d\n", name.c_str(), rs.width,
+              rs.height, path.frames, os.cache_mb, os.brick);
+  std::printf("%5s %9s %12s %10s %11s %10s %12s %11s\n", "view", "frames", "converged ms", "loads", "resident MB",
+              "tree nodes", "page table KB", "samples");
+  nlohmann::json js;
+  js["volume"] = name;
+  js["views"] = nlohmann::json::array();
+  std::ostringstream csv;
+  csv << "view,frame,total_ms,raycast_ms,lists_ms,loads,misses,pending,resident_mb,tree_nodes,page_table_kb,samples\n";
+  std::vector<double> conv_ms;
+  int unconverged = 0;
+  std::uint64_t total_loads = 0, total_frames = 0;
+  for (int v = 0; v < path.frames; ++v) {
+    const OutOfCoreScene scene{&tf, enabled ? &*enabled : nullptr, path.at(v)};
+    Frame f;
+    int n = 0;
+    std::uint64_t loads = 0;
+    while (n < o.max_frames_per_view) {
+      f = renderer.render(scene, rs);
+      ++n;
+      loads += f.stats.cache.loads;
+      csv << v << ',' << n << ',' << f.stats.time_ms.total << ',' << f.stats.time_ms.raycast << ','
+          << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.misses << ','
+          << f.stats.cache.pending << ',' << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ','
+          << f.stats.cache.page_table_kb << ',' << f.stats.samples << '\n';
+      if (renderer.converged()) break;
+    }
+    total_loads += loads;
+    total_frames += std::uint64_t(n);
+    const bool ok = renderer.converged();
+    unconverged += ok ? 0 : 1;
+    if (ok) conv_ms.push_back(f.stats.time_ms.total);
+    std::printf("%5d %9s %12.1f %10llu %11.1f %10llu %12.1f %11llu\n", v,
+                ok ? std::to_string(n).c_str() : (">" + std::to_string(n)).c_str(), f.stats.time_ms.total,
+                (unsigned long long)loads, f.stats.cache.resident_mb, (unsigned long long)f.stats.tree_nodes,
+                f.stats.cache.page_table_kb, (unsigned long long)f.stats.samples);
+    js["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"converged_frame_ms", f.stats.time_ms.total},
+                           {"loads", loads}, {"resident_mb", f.stats.cache.resident_mb},
+                           {"tree_nodes", f.stats.tree_nodes}, {"page_table_kb", f.stats.cache.page_table_kb},
+                           {"samples", f.stats.samples}});
+  }
+  js["median_converged_frame_ms"] = percentile(conv_ms, 0.5);
+  js["loads_per_frame"] = total_frames ? double(total_loads) / double(total_frames) : 0.0;
+  js["unconverged_views"] = unconverged;
+  std::printf("median converged frame %.1f ms, %.1f loads per frame, %d views did not converge\n",
+              percentile(conv_ms, 0.5), total_frames ? double(total_loads) / double(total_frames) : 0.0, unconverged);
+  if (!o.csv.empty()) write_file(o.csv, csv.str());
+  if (!o.json.empty()) write_file(o.json, js.dump(2) + "\n");
+  return 0;
+}
+
 int run_bench(const BenchOptions& o) {
   RenderSettings rs;
   parse_size(o.size, rs.width, rs.height);
@@ -125,6 +214,7 @@ int run_bench(const BenchOptions& o) {
     threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
   }
 
+  if (is_procedural_spec(o.scene.volume) || o.cache_mb > 0) return run_bench_out_of_core(o, rs);
   LoadedScene ls = load_scene(o.scene);
   rs.iso = std::isnan(o.iso) ? (ls.volume.type() == VoxelType::U8 ? 128.0f : 0.5f * (ls.tf.vmin() + ls.tf.vmax())) : o.iso;
   CameraPath path;
@@ -249,6 +339,11 @@ Runner add_bench_command(CLI::App& app) {
   c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
   c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
   c->add_option("--csv", o->csv, "Per-frame CSV (a row per method and frame)");
+  c->add_option("--cache-mb", o->cache_mb, "Out of core with this cache budget (sparseleap only; default for procedural 1024)");
+  c->add_option("--brick", o->brick, "Brick payload edge (out of core)")->capture_default_str();
+  c->add_option("--lod-bias", o->lod_bias, "Level-of-detail bias (out of core)")->capture_default_str();
+  c->add_option("--max-frames-per-view", o->max_frames_per_view, "Out of core: frames per view at most")
+      ->capture_default_str();
   c->add_option("--json", o->json, "Summary JSON");
   return [o] { return run_bench(*o); };
 }
