@@ -199,3 +199,52 @@ TEST(CliBench, BadInput) {
 
 }  // namespace
 }  // namespace sl
+
+namespace sl {
+namespace {
+
+TEST(CliOutOfCore, RenderConvergesAndReportsCacheStats) {
+  const auto dir = test::scratch_dir();
+  const test::RunResult r = test::run_sparseleap(
+      "render --volume builtin:neurites:64x64x64 --cache-mb 8 --brick 16 --frames 12 --size 48x40 --out " +
+      (dir / "o").string() + " --stats-json " + (dir / "o.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("out of core"), std::string::npos) << r.output;
+  const std::string j = test::read_text(dir / "o.json");
+  for (const char* key : {"\"cache\"", "\"resident_mb\"", "\"loads\"", "\"evictions\"", "\"page_table_kb\"",
+                          "\"converged_at_frame\"", "\"metadata_blocks\""}) {
+    EXPECT_NE(j.find(key), std::string::npos) << key;
+  }
+  EXPECT_EQ(j.find("\"converged_at_frame\": -1"), std::string::npos) << "12 frames suffice to converge: " << j;
+}
+
+TEST(CliOutOfCore, BadOptions) {
+  const auto dir = test::scratch_dir();
+  const std::string out = " --out " + (dir / "o").string();
+  auto r = test::run_sparseleap("render --volume builtin:neurites:256x256x256 --cache-mb 1 --brick 64 --size 8x8" + out);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--cache-mb"), std::string::npos) << r.output;
+  r = test::run_sparseleap("render --volume procedural:neurites:0x10x10 --size 8x8" + out);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("procedural"), std::string::npos) << r.output;
+  r = test::run_sparseleap("render --volume builtin:neurites:32x32x32 --cache-mb 8 --lod 9 --size 8x8" + out);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--lod"), std::string::npos) << r.output;
+  r = test::run_sparseleap("render --volume builtin:neurites:32x32x32 --cache-mb 8 --method octree --size 8x8" + out);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_FALSE(std::filesystem::exists(dir / "o.png"));
+}
+
+TEST(CliOutOfCore, BenchReportsFramesToConvergencePerView) {
+  const auto dir = test::scratch_dir();
+  const test::RunResult r = test::run_sparseleap(
+      "bench --volume builtin:neurites:48x48x48 --cache-mb 8 --brick 16 --orbit 2 --size 32x32 --json " +
+      (dir / "b.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string j = test::read_text(dir / "b.json");
+  EXPECT_NE(j.find("\"frames_to_converge\""), std::string::npos) << j;
+  EXPECT_NE(j.find("\"loads_per_frame\""), std::string::npos) << j;
+}
+
+}  // namespace
+}  // namespace sl
