@@ -17,7 +17,8 @@ Runner add_view_command(CLI::App& app) {
   CLI::App* c = app.add_subcommand(
       "view", "Interactive window: orbit/pan/zoom, method and mode switches, b-box and depth-complexity views, "
               "transfer-function and label editing, stats, camera-path recording");
-  c->add_option("--volume", o->scene.volume, "Intensity volume: NRRD (.nrrd/.nhdr) or builtin:KIND[:XxYxZ[:SEED]]; default builtin:neurites (256^3)");
+  c->add_option("--volume", o->scene.volume, "Volume: NRRD (.nrrd/.nhdr), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED] "
+                "(out of core); default builtin:neurites (256^3)");
   c->add_option("--labels", o->scene.labels, "Label volume (NRRD, integer type, same dims)");
   c->add_option("--tf", o->scene.tf, "Transfer function JSON (also the editor's load/save file)");
   c->add_option("--camera", o->scene.camera, "Camera JSON (the home view; R returns to it)");
@@ -34,6 +35,10 @@ Runner add_view_command(CLI::App& app) {
   c->add_option("--scale", o->scale, "Render resolution relative to the canvas, (0, 1]")->capture_default_str();
   c->add_option("--preview-scale", o->preview_scale, "Extra resolution factor while dragging, (0, 1]")->capture_default_str();
   c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
+  c->add_option("--cache-mb", o->cache_mb, "Out of core with this brick-cache budget: bricks stream in and the view refines "
+                "(default for procedural: 1024)");
+  c->add_option("--brick", o->brick, "Brick payload edge: 8, 16, 32 or 64 (out of core)")->capture_default_str();
+  c->add_option("--lod-bias", o->lod_bias, "Level-of-detail bias, >1 coarser (out of core)")->capture_default_str();
   c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
   c->add_option("--screenshot", o->screenshot, "Save the window (with the UI) to this PNG after --frames frames, then exit");
   c->add_option("--frames", o->frames, "Render this many frames, then exit (default 3 with --screenshot)");

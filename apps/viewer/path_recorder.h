@@ -11,7 +11,8 @@ namespace sl::viewer {
 class PathRecorder {
  public:
   // Frames that `bench` renders between two consecutive keyframes.
-  explicit PathRecorder(int frames_per_segment = 30) : frames_per_segment_(frames_per_segment < 1 ? 1 : frames_per_segment) {}
+  explicit PathRecorder(int frames_per_segment = 30)
+      : frames_per_segment_(frames_per_segment < 1 ? 1 : frames_per_segment) {}
 
   // Appends a keyframe; false (nothing added) when it equals the last one, so holding K or an idle
   // timer does not pile up identical keyframes that would stall the replayed path.

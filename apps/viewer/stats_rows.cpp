@@ -15,16 +15,8 @@ std::string fmt(const char* f, double v) {
 
 std::string ms(double v) { return fmt("%.1f", v); }
 
-// A row for a Stats member that may not exist yet (the out-of-core cache adds its fields): the
-// requires-expression is checked where S is a template parameter, so a missing member drops the row
-// instead of breaking the build. Several spellings are listed where the cache's naming is not settled.
-#define SL_OPTIONAL_ROW(rows, s, field, label, to_text)                          \
-  if constexpr (requires { s.field; }) {                                        \
-    rows.push_back({label, to_text(double(s.field))});                          \
-  }
-
-template <class S>
-void add_rows(std::vector<StatRow>& r, const S& s) {
+// One line per field: the overlay shows what core/stats.h counts (STYLE.md #10).
+void add_rows(std::vector<StatRow>& r, const Stats& s) {
   r.push_back({"frame ms", ms(s.time_ms.total)});
   r.push_back({"size", std::to_string(s.width) + "x" + std::to_string(s.height)});
   r.push_back({s.backend + " " + s.method + " " + s.mode, "", true});
@@ -45,26 +37,19 @@ void add_rows(std::vector<StatRow>& r, const S& s) {
                                "/" + fmt("%.0f", double(s.depth_complexity_max))});
   r.push_back({"occ. misses", human_count(double(s.occupancy_misses))});
   r.push_back({"overflows", human_count(double(s.list_overflows))});
-  // Out-of-core cache (DESIGN.md §4), shown once core/stats.h carries these fields.
-  const std::size_t before = r.size();
-  SL_OPTIONAL_ROW(r, s, resident_mb, "resident MB", ms)
-  SL_OPTIONAL_ROW(r, s, cache_resident_mb, "resident MB", ms)
-  SL_OPTIONAL_ROW(r, s, resident_bricks, "resident bricks", human_count)
-  SL_OPTIONAL_ROW(r, s, pending_loads, "pending loads", human_count)
-  SL_OPTIONAL_ROW(r, s, brick_misses, "brick misses", human_count)
-  SL_OPTIONAL_ROW(r, s, cache_misses, "brick misses", human_count)
-  SL_OPTIONAL_ROW(r, s, brick_loads, "bricks loaded", human_count)
-  SL_OPTIONAL_ROW(r, s, bricks_loaded, "bricks loaded", human_count)
-  SL_OPTIONAL_ROW(r, s, evictions, "evictions", human_count)
-  if (r.size() > before) r.insert(r.begin() + std::ptrdiff_t(before), StatRow{"cache", "", true});
-}
-
-template <class S>
-std::uint64_t pending_of(const S& s) {
-  if constexpr (requires { s.pending_loads; }) {
-    return std::uint64_t(s.pending_loads);
-  } else {
-    return 0;
+  // Out-of-core cache (DESIGN.md §4): only frames of the out-of-core path carry it.
+  if (s.cache.present) {
+    const CacheStats& c = s.cache;
+    r.push_back({"cache", "", true});
+    r.push_back({"resident MB", ms(c.resident_mb)});
+    r.push_back({"page table KB", ms(c.page_table_kb)});
+    r.push_back({"hits", human_count(double(c.hits))});
+    r.push_back({"misses", human_count(double(c.misses))});
+    r.push_back({"loads", human_count(double(c.loads))});
+    r.push_back({"pending", human_count(double(c.pending))});
+    r.push_back({"evictions", human_count(double(c.evictions))});
+    r.push_back({"failed", human_count(double(c.failed))});
+    r.push_back({"converged at", c.converged_at_frame < 0 ? "-" : std::to_string(c.converged_at_frame)});
   }
 }
 
@@ -76,7 +61,9 @@ std::vector<StatRow> stats_rows(const Stats& s) {
   return rows;
 }
 
-std::uint64_t pending_loads(const Stats& s) { return pending_of(s); }
+std::uint64_t pending_loads(const Stats& s) { return s.cache.present ? s.cache.pending : 0; }
+
+bool still_refining(const Stats& s) { return s.cache.present && (s.cache.pending > 0 || s.cache.misses > 0); }
 
 std::string human_count(double n) {
   if (!std::isfinite(n)) return "-";

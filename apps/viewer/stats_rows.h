@@ -1,7 +1,6 @@
 // The viewer's stats overlay as data: label/value rows made from one frame's Stats (STYLE.md #10:
 // one struct, printed by every front end). Adding a field to the overlay is one line in
-// stats_rows.cpp; cache fields (resident MB, pending loads, misses, loads) appear by themselves once
-// core/stats.h has them, through a compile-time presence check, so the viewer builds before and after.
+// stats_rows.cpp; the out-of-core cache rows appear for frames that carry cache counters.
 #pragma once
 
 #include <cstdint>
@@ -20,9 +19,11 @@ struct StatRow {
 
 std::vector<StatRow> stats_rows(const Stats& s);
 
-// Bricks still being loaded after this frame (0 when Stats has no such field yet): while non-zero
-// the viewer keeps rendering so the image refines as data streams in (DESIGN.md §4).
+// Bricks still being loaded after this frame (0 in core): the overlay's loading indicator.
 std::uint64_t pending_loads(const Stats& s);
+// Whether another frame of the same view would show more (out of core: loads pending, or misses to
+// resolve): the viewer then keeps rendering, so the image refines as data stream in (DESIGN.md §4).
+bool still_refining(const Stats& s);
 
 // "12.3 M", "4.5 k", "17": counts people read at a glance.
 std::string human_count(double n);

@@ -12,13 +12,20 @@ RenderMode next_mode(RenderMode m, bool has_labels) {
   return RenderMode::Dvr;
 }
 
+bool method_available(const ViewSettings& v, SkipMethod m) {
+  return !v.out_of_core || m == SkipMethod::SparseLeap || m == SkipMethod::None;
+}
+
 KeyAction apply_key(ViewSettings& v, int key) {
   if (key >= 'a' && key <= 'z') key -= 'a' - 'A';
   switch (key) {
     case '1':
     case '2':
     case '3':
-    case '4': v.render.method = kMethods[key - '1']; return KeyAction::Changed;
+    case '4':
+      if (!method_available(v, kMethods[key - '1'])) return KeyAction::None;
+      v.render.method = kMethods[key - '1'];
+      return KeyAction::Changed;
     case 'M': v.render.mode = next_mode(v.render.mode, v.has_labels); return KeyAction::Changed;
     case 'B': v.render.boxes_overlay = !v.render.boxes_overlay; return KeyAction::Changed;
     case 'D': v.render.depth_complexity_view = !v.render.depth_complexity_view; return KeyAction::Changed;

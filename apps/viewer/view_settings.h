@@ -15,14 +15,19 @@ struct ViewSettings {
   float scale = 1.0f;          // render resolution relative to the canvas (lower = faster)
   float preview_scale = 0.5f;  // while the camera or transfer function is being dragged
   bool has_labels = false;     // labels mode needs a label volume
+  bool out_of_core = false;    // the out-of-core path renders sparseleap and none only
   bool show_stats = true;
 };
 
 enum class KeyAction { None, Changed, ResetView, Screenshot, Keyframe };
 
-// 1-4: method none/bbox/octree/sparseleap; M: cycle the mode; B: box overlay; D: depth-complexity
-// view; R: reset the view; S: screenshot; K: camera keyframe. Settings changes return Changed.
+// 1-4: method none/bbox/octree/sparseleap (an unavailable one is ignored: None); M: cycle the mode;
+// B: box overlay; D: depth-complexity view; R: reset the view; S: screenshot; K: camera keyframe.
+// Settings changes return Changed.
 KeyAction apply_key(ViewSettings& v, int key);
+
+// Whether method m can render here (out of core: sparseleap and none).
+bool method_available(const ViewSettings& v, SkipMethod m);
 
 // dvr -> mip -> iso -> labels -> dvr, skipping labels without a label volume.
 RenderMode next_mode(RenderMode m, bool has_labels);

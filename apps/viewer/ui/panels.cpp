@@ -17,7 +17,9 @@ void method_mode_controls(PanelModel& m) {
   ImGui::TextUnformatted("method (1-4)");
   for (std::size_t i = 0; i < std::size(kMethods); ++i) {
     if (i) ImGui::SameLine();
+    ImGui::BeginDisabled(!method_available(*m.view, kMethods[i]));
     if (ImGui::RadioButton(to_string(kMethods[i]), rs.method == kMethods[i])) rs.method = kMethods[i];
+    ImGui::EndDisabled();
   }
   ImGui::TextUnformatted("mode (M)");
   for (std::size_t i = 0; i < std::size(kModes); ++i) {
@@ -102,7 +104,9 @@ PanelActions draw_control_panel(PanelModel& m, PanelState& st, float width, floa
   return a;
 }
 
-void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& info, float right, float top) {
+void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& info, float right, float top,
+                        bool full) {
+  if (!full && info.pending_loads == 0 && info.error.empty()) return;
   ImGui::SetNextWindowPos(ImVec2(right - 6.0f, top + 6.0f), ImGuiCond_Always, ImVec2(1.0f, 0.0f));
   ImGui::SetNextWindowBgAlpha(0.6f);
   const ImGuiWindowFlags flags = ImGuiWindowFlags_NoDecoration | ImGuiWindowFlags_AlwaysAutoResize |
@@ -113,15 +117,17 @@ void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& inf
   if (info.pending_loads > 0) {
     ImGui::TextColored(ImVec4(1.0f, 0.8f, 0.2f, 1.0f), "loading %llu bricks", (unsigned long long)info.pending_loads);
   }
-  ImGui::Text("%dx%d%s  UI %.0f fps%s", info.render_width, info.render_height, info.preview ? " preview" : "",
-              info.ui_fps, info.rendering ? "  *" : "");
+  if (full) {
+    ImGui::Text("%dx%d%s  UI %.0f fps%s", info.render_width, info.render_height, info.preview ? " preview" : "",
+                info.ui_fps, info.rendering ? "  *" : "");
+  }
   if (!info.error.empty()) {
     ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 260.0f);
     ImGui::TextColored(ImVec4(1.0f, 0.35f, 0.3f, 1.0f), "%s", info.error.c_str());
     ImGui::PopTextWrapPos();
   }
   // Two label/value pairs per line: half the height, so the overlay hides less of a small canvas.
-  if (ImGui::BeginTable("rows", 4, ImGuiTableFlags_SizingFixedFit)) {
+  if (!rows.empty() && ImGui::BeginTable("rows", 4, ImGuiTableFlags_SizingFixedFit)) {
     int column = 0;
     for (const StatRow& r : rows) {
       if (r.heading || column == 0) ImGui::TableNextRow();

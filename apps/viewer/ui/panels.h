@@ -62,8 +62,10 @@ struct OverlayInfo {
   std::string error;
 };
 
-// Semi-transparent window in the canvas's top-right corner (`right`, `top` in window units).
-void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& info, float right, float top);
+// Semi-transparent window in the canvas's top-right corner (`right`, `top` in window units). With
+// `full` off (stats hidden) only the loading indicator and errors show, and nothing when neither.
+void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& info, float right, float top,
+                        bool full = true);
 
 // Panel width in window units (the canvas starts there).
 constexpr float kPanelWidth = 330.0f;

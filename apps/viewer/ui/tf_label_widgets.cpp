@@ -54,8 +54,8 @@ bool tf_canvas(TfEditor& tf, const std::vector<float>& hist, PanelState& st) {
   }
   const auto& pts = tf.points();
   for (std::size_t i = 1; i < pts.size(); ++i) {
-    dl->AddLine(ImVec2(to_x(pts[i - 1].value), to_y(pts[i - 1].rgba.a)), ImVec2(to_x(pts[i].value), to_y(pts[i].rgba.a)),
-                IM_COL32(230, 230, 230, 255), 1.5f);
+    const ImVec2 a(to_x(pts[i - 1].value), to_y(pts[i - 1].rgba.a));
+    dl->AddLine(a, ImVec2(to_x(pts[i].value), to_y(pts[i].rgba.a)), IM_COL32(230, 230, 230, 255), 1.5f);
   }
   for (std::size_t i = 0; i < pts.size(); ++i) {
     const ImVec2 c(to_x(pts[i].value), to_y(pts[i].rgba.a));

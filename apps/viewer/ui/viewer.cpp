@@ -25,6 +25,7 @@
 #include "apps/viewer/stats_rows.h"
 #include "apps/viewer/tf_editor.h"
 #include "apps/viewer/ui/panels.h"
+#include "apps/viewer/ui/viewer_scene.h"
 #include "apps/viewer/ui/window.h"
 #include "core/error.h"
 
@@ -108,12 +109,32 @@ ViewSettings settings_from(const ViewerOptions& o) {
   return v;
 }
 
-void complete_settings(ViewSettings& v, const ViewerOptions& o, const app::LoadedScene& ls) {
+void complete_settings(ViewSettings& v, const ViewerOptions& o, const ViewerScene& sc) {
   // Same iso default as `render`, so a view can be reproduced there.
   v.render.iso = !std::isnan(o.iso) ? o.iso
-                 : ls.volume.type() == VoxelType::U8 ? 128.0f
-                                                     : 0.5f * (ls.tf.vmin() + ls.tf.vmax());
-  v.has_labels = !ls.labels.empty();
+                 : sc.desc.type == VoxelType::U8 ? 128.0f
+                                                 : 0.5f * (sc.tf.vmin() + sc.tf.vmax());
+  v.has_labels = sc.labels != nullptr;
+  v.out_of_core = sc.out_of_core();
+}
+
+// The checks the renderer would make on the first frame, made before a window opens.
+void validate_start(const ViewSettings& v, const ViewerOptions& o, const ViewerScene& sc) {
+  const RenderSettings& rs = v.render;
+  if (sc.volume) {
+    Scene probe;
+    probe.volume = sc.volume.get();
+    probe.labels = sc.labels.get();
+    probe.tf = &sc.tf;
+    probe.camera = sc.camera;
+    validate(probe, rs);
+  } else if (rs.mode == RenderMode::Labels) {
+    throw InputError("--mode", "labels mode needs a label volume (--labels)");
+  }
+  if (!method_available(v, rs.method)) {
+    throw InputError("--method", "out-of-core rendering supports sparseleap and none");
+  }
+  make_ray_generator(sc.camera, rs.width, rs.height, o.scene.camera.empty() ? "camera" : o.scene.camera);
 }
 
 void report(const std::vector<double>& ms, const Shown& shown) {
@@ -125,15 +146,16 @@ void report(const std::vector<double>& ms, const Shown& shown) {
 
 // Toggles the label under the cursor: the first visible label along the pixel's ray goes off; where
 // no visible label is hit, the first hidden one along the ray comes back on.
-void pick(Session& s, const app::LoadedScene& ls, const Shown& shown, float u, float v) {
-  if (!s.labels || !shown.valid) return;
+void pick(Session& s, const ViewerScene& sc, const Shown& shown, float u, float v) {
+  if (!s.labels || !sc.labels || !shown.valid) return;
+  const Volume& labels = *sc.labels;
   LabelState& L = *s.labels;
   const int px = int(u * float(shown.width));
   const int py = int(v * float(shown.height));
   const bool masked = L.masking() || s.view.render.mode == RenderMode::Labels;
-  std::uint32_t id = pick_label(ls.labels, shown.camera, shown.width, shown.height, px, py,
+  std::uint32_t id = pick_label(labels, shown.camera, shown.width, shown.height, px, py,
                                 masked ? &L.enabled() : nullptr);
-  if (id == 0 && masked) id = pick_label(ls.labels, shown.camera, shown.width, shown.height, px, py);
+  if (id == 0 && masked) id = pick_label(labels, shown.camera, shown.width, shown.height, px, py);
   if (id == 0) {
     s.panel.status = "no label under the cursor";
     return;
@@ -144,7 +166,7 @@ void pick(Session& s, const app::LoadedScene& ls, const Shown& shown, float u, f
   s.panel.status = "label " + std::to_string(id) + (was_visible ? " off" : " on");
 }
 
-void canvas_input(Session& s, Drag& d, const app::LoadedScene& ls, const Shown& shown, float x0, float w, float h,
+void canvas_input(Session& s, Drag& d, const ViewerScene& sc, const Shown& shown, float x0, float w, float h,
                   float pixel_ratio) {
   ImGuiIO& io = ImGui::GetIO();
   const ImVec2 m = io.MousePos;
@@ -175,7 +197,7 @@ void canvas_input(Session& s, Drag& d, const app::LoadedScene& ls, const Shown& 
     }
   }
   if (!io.MouseDown[d.button]) {
-    if (d.button == 0 && d.moved < kClickSlop && !io.KeyShift) pick(s, ls, shown, (m.x - x0) / w, m.y / h);
+    if (d.button == 0 && d.moved < kClickSlop && !io.KeyShift) pick(s, sc, shown, (m.x - x0) / w, m.y / h);
     d.button = -1;
   }
 }
@@ -216,42 +238,39 @@ int run_viewer(const ViewerOptions& o) {
   if (!o.record_path.empty()) check_output_prefix(o.record_path);
   Session s;
   s.view = settings_from(o);
-  const app::LoadedScene ls = app::load_scene(o.scene);
-  complete_settings(s.view, o, ls);
+  const ViewerScene sc = load_viewer_scene(o);
+  complete_settings(s.view, o, sc);
+  validate_start(s.view, o, sc);
   const int canvas_w = s.view.render.width;
   const int canvas_h = s.view.render.height;
-  {
-    Scene probe;
-    probe.volume = &ls.volume;
-    probe.labels = ls.labels.empty() ? nullptr : &ls.labels;
-    probe.tf = &ls.tf;
-    probe.camera = ls.camera;
-    validate(probe, s.view.render);
-    make_ray_generator(ls.camera, canvas_w, canvas_h, o.scene.camera.empty() ? "camera" : o.scene.camera);
-  }
   const app::Backend backend = app::choose_backend(o.backend);
-  float lo = 0.0f, hi = 1.0f;
-  data_domain(ls.volume, lo, hi);
-  s.tf.emplace(ls.tf, lo, hi);
-  s.histogram = value_histogram(ls.volume, kHistogramBins, s.tf->lo(), s.tf->hi());
-  if (!ls.labels.empty()) s.labels.emplace(ls.label_count, ls.enabled);
-  s.orbit.emplace(ls.camera);
+  RenderWorker::RenderFn render_fn = make_render_fn(sc, o, backend);
+  float lo = 0.0f, hi = 255.0f;
+  if (sc.volume) {
+    data_domain(*sc.volume, lo, hi);
+  } else if (sc.desc.type != VoxelType::U8) {
+    lo = sc.tf.vmin();
+    hi = sc.tf.vmax();
+  }
+  s.tf.emplace(sc.tf, lo, hi);
+  // A procedural source has no voxels in memory to count: its editor shows no histogram.
+  if (sc.volume) s.histogram = value_histogram(*sc.volume, kHistogramBins, s.tf->lo(), s.tf->hi());
+  if (sc.labels) s.labels.emplace(sc.label_count, sc.enabled);
+  s.orbit.emplace(sc.camera);
   if (!o.scene.tf.empty()) s.panel.tf_file = o.scene.tf;
   if (!o.record_path.empty()) s.panel.path_file = o.record_path;
 
   std::unique_ptr<Window> win;
   try {
-    win = std::make_unique<Window>(canvas_w + int(kPanelWidth), canvas_h, "sparseleap view: " + ls.name);
+    const std::string title = "sparseleap view: " + sc.name + (sc.out_of_core() ? " (out of core)" : "");
+    win = std::make_unique<Window>(canvas_w + int(kPanelWidth), canvas_h, title);
   } catch (const WindowError& e) {
     std::fprintf(stderr, "sparseleap: error: view: %s\n", e.what());
     return 1;
   }
-  app::FrameRenderer renderer(backend);
   FrameTexture texture;
   // Declared after the window: destroyed first, so it never wakes a terminated GLFW.
-  RenderWorker worker(&ls.volume, ls.labels.empty() ? nullptr : &ls.labels,
-                      [&renderer](const Scene& sc, const RenderSettings& rs) { return renderer.render(sc, rs); },
-                      &Window::wake);
+  RenderWorker worker(sc.volume.get(), sc.labels.get(), std::move(render_fn), &Window::wake);
 
   const bool scripted = o.frames > 0 || !o.screenshot.empty();
   const int frames_wanted = o.frames > 0 ? o.frames : 3;
@@ -301,12 +320,13 @@ int run_viewer(const ViewerOptions& o) {
     if (!texture.empty()) {
       ImGui::GetBackgroundDrawList()->AddImage(texture.imgui_id(), ImVec2(x0, 0.0f), ImVec2(x0 + cw, ch));
     }
-    if (s.view.show_stats) {
+    {
       OverlayInfo info{io.Framerate, shown.width, shown.height, shown.preview, busy,
                        shown.valid ? pending_loads(shown.stats) : 0, shown.error};
-      draw_stats_overlay(stats_rows(shown.stats), info, win_w, 0.0f);
+      draw_stats_overlay(s.view.show_stats ? stats_rows(shown.stats) : std::vector<StatRow>{}, info, win_w, 0.0f,
+                         s.view.show_stats);
     }
-    if (!scripted) canvas_input(s, drag, ls, shown, x0, cw, ch, ratio);
+    if (!scripted) canvas_input(s, drag, sc, shown, x0, cw, ch, ratio);
     const PanelActions keys = key_input(s);
     if (a.reset_view || keys.reset_view) s.orbit->reset();
     if (a.keyframe || keys.keyframe) {
@@ -360,7 +380,7 @@ int run_viewer(const ViewerOptions& o) {
                            !same_settings(job.settings, last_job->settings) || job.tf != last_job->tf ||
                            job.enabled != last_job->enabled || job.preview != last_job->preview;
       // While bricks stream in, keep rendering the same view: each frame is more complete.
-      const bool refine = shown.valid && pending_loads(shown.stats) > 0 && worker.idle();
+      const bool refine = shown.valid && !shown.preview && still_refining(shown.stats) && worker.idle();
       if (changed || refine) {
         job.id = next_id++;
         last_job = job;

@@ -16,6 +16,9 @@ struct ViewerOptions {
   std::string view = "image";  // or depth-complexity
   bool boxes = false;
   std::string backend = "auto";
+  std::size_t cache_mb = 0;    // > 0: out of core with this brick-cache budget (procedural: 1024)
+  int brick = 32;              // out of core: brick payload edge
+  float lod_bias = 1.0f;       // out of core: > 1 coarser levels
   float iso = NAN;
   float step = 0.5f;
   int block = 16;

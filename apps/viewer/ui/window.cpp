@@ -25,7 +25,8 @@ std::string last_error() {
   return g_last_error.empty() ? "no reason given" : g_last_error;
 }
 
-constexpr const char* kHint = " (the viewer needs a display with OpenGL 3.3; on a headless machine run it under Xvfb, e.g. xvfb-run)";
+constexpr const char* kHint =
+    " (the viewer needs a display with OpenGL 3.3; on a headless machine run it under Xvfb, e.g. xvfb-run)";
 
 }  // namespace
 
