@@ -53,6 +53,19 @@ const char* gl_error_name(GLenum e) {
   }
 }
 
+// libglvnd lets a thread have one current context across EGL and GLX: making a GLX (GLFW) context
+// current while an EGL one is fails with BadAccess, and vice versa. Release the other API's first.
+// (eglGetCurrentContext is not reliable for this across libglvnd's vendor dispatch: it may answer
+// EGL_NO_CONTEXT while Mesa's context is current; eglReleaseThread always releases it.)
+void release_egl_context() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (g_egl_users > 0) eglReleaseThread();
+}
+void release_glfw_context() {
+  std::lock_guard<std::mutex> lock(g_mutex);
+  if (g_glfw_users > 0 && glfwGetCurrentContext()) glfwMakeContextCurrent(nullptr);
+}
+
 }  // namespace
 
 struct GlContext::Impl {
@@ -138,6 +151,7 @@ std::unique_ptr<GlContext> GlContext::create_headless(const GlContextOptions& op
     throw GlError("EGL: cannot create an OpenGL " + std::to_string(options.major) + "." +
                   std::to_string(options.minor) + " core context (" + hex(unsigned(eglGetError())) + ")");
   }
+  release_glfw_context();
   if (!eglMakeCurrent(impl->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl->context)) {
     throw GlError("EGL: eglMakeCurrent without a surface failed (" + hex(unsigned(eglGetError())) + ")");
   }
@@ -150,6 +164,7 @@ std::unique_ptr<GlContext> GlContext::create_window(int width, int height, const
                                                     const GlContextOptions& options) {
   auto impl = std::make_unique<Impl>();
   impl->info.platform = "glfw";
+  release_egl_context();  // before glfwCreateWindow, which makes the new context current to query it
   {
     std::lock_guard<std::mutex> lock(g_mutex);
     glfwSetErrorCallback(glfw_error);
@@ -214,8 +229,12 @@ void GlContext::finish_init(const GlContextOptions& options) {
 
 void GlContext::make_current() {
   if (impl_->window) {
+    release_egl_context();
     glfwMakeContextCurrent(impl_->window);
-  } else if (!eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context)) {
+    return;
+  }
+  release_glfw_context();
+  if (!eglMakeCurrent(impl_->display, EGL_NO_SURFACE, EGL_NO_SURFACE, impl_->context)) {
     throw GlError("EGL: eglMakeCurrent failed (" + hex(unsigned(eglGetError())) + ")");
   }
 }

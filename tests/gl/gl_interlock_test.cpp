@@ -1,0 +1,84 @@
+// The interlock path's shaders (interlock.frag + the GLSL add_event) on llvmpipe. llvmpipe lacks
+// GL_ARB_fragment_shader_interlock, but Mesa can be told to advertise it
+// (MESA_EXTENSION_OVERRIDE, read once per process, before the first context), and llvmpipe's
+// rasterizer shades each screen tile on one thread in primitive order, so per-pixel order holds even
+// though begin/endInvocationInterlockARB do nothing there. This compiles and runs the interlock program
+// and checks its lists against the CPU builder's. It does not prove the critical section on real
+// hardware (that needs a GPU with the extension). The test re-runs this binary as a child process
+// with the override set, since the suite's own context exists already.
+#include <gtest/gtest.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdlib>
+#include <string>
+#include <vector>
+
+#include "core/segment_list_builder.h"
+#include "gl/gl_segment_list_builder.h"
+#include "tests/gl/gl_test_util.h"
+
+extern char** environ;
+
+namespace sl {
+namespace {
+
+constexpr const char* kChildVar = "SL_GL_INTERLOCK_CHILD";
+
+void child_body() {
+  SL_REQUIRE_GL(ctx);
+  ASSERT_TRUE(ctx->info().arb_interlock) << "MESA_EXTENSION_OVERRIDE did not take: " << ctx->info().summary();
+  GlBuilderOptions o;
+  o.path = GlBuilderOptions::Path::Interlock;
+  GlSegmentListBuilder b(*ctx, o);
+  ASSERT_EQ(b.path(), GlListPath::Interlock);
+  const test::GlFixture f = test::random_gl_fixture(11, ivec3(61, 64, 45), vec3(1.0f, 0.5f, 2.0f), 4, 300);
+  const Camera cams[] = {test::gl_perspective(vec3(100.0f, 70.0f, 150.0f), vec3(30.0f, 16.0f, 45.0f)),
+                         test::gl_perspective(vec3(20.0f, 15.0f, 40.0f), vec3(50.0f, 16.0f, 10.0f), 90.0f),
+                         test::gl_orthographic(vec3(100.0f, -50.0f, 80.0f), vec3(30.0f, 16.0f, 45.0f), 110.0f)};
+  for (const Camera& cam : cams) {
+    for (const float eps : {0.0f, 0.5f}) {
+      const RayGenerator gen = make_ray_generator(cam, 61, 47);
+      const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+      SegmentListBuffer cpu, gl;
+      cpu.capacity = gl.capacity = eps > 0.0f ? kMaxEvents : 5u;  // also the overflow rule
+      build_segment_lists(f.geometry, order, gen, cpu, eps);
+      const GlBuildStats st = b.build_segment_lists(f.geometry, order, gen, gl, eps);
+      EXPECT_EQ(st.path, GlListPath::Interlock);
+      test::expect_same_lists(*ctx, gl, cpu);
+    }
+  }
+}
+
+TEST(GlInterlock, InterlockProgramMatchesCpuOnLlvmpipeWithForcedExtension) {
+  if (std::getenv(kChildVar)) {
+    child_body();
+    return;
+  }
+  SL_REQUIRE_GL(ctx);
+  if (ctx->info().interlock()) GTEST_SKIP() << "the context has interlock: the builder tests already use it";
+  if (ctx->info().renderer.find("llvmpipe") == std::string::npos) {
+    GTEST_SKIP() << "forcing the extension is only meaningful on llvmpipe, not on " << ctx->info().renderer;
+  }
+  const std::string filter = "--gtest_filter=GlInterlock.InterlockProgramMatchesCpuOnLlvmpipeWithForcedExtension";
+  std::vector<std::string> env_strings = {std::string(kChildVar) + "=1",
+                                          "MESA_EXTENSION_OVERRIDE=+GL_ARB_fragment_shader_interlock"};
+  for (char** e = environ; *e; ++e) {
+    if (std::string(*e).rfind("MESA_EXTENSION_OVERRIDE=", 0) != 0) env_strings.emplace_back(*e);
+  }
+  std::vector<char*> envp;
+  for (std::string& s : env_strings) envp.push_back(s.data());
+  envp.push_back(nullptr);
+  std::string self = "/proc/self/exe";
+  char* argv[] = {self.data(), const_cast<char*>(filter.c_str()), nullptr};
+  pid_t pid = -1;
+  ASSERT_EQ(posix_spawn(&pid, "/proc/self/exe", nullptr, nullptr, argv, envp.data()), 0);
+  int status = 0;
+  ASSERT_EQ(waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status)) << "child crashed";
+  EXPECT_EQ(WEXITSTATUS(status), 0) << "the interlock child failed (its output is above)";
+}
+
+}  // namespace
+}  // namespace sl
