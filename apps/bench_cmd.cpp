@@ -121,24 +121,11 @@ Summary summarize(const std::vector<FrameRecord>& recs) {
 // Out of core: every view of the path is rendered until it converges (no misses, nothing pending) or
 // --max-frames-per-view; reports frames to convergence per view, loads, tree and page-table size.
 int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
-  std::shared_ptr<const VolumeSource> source;
-  TransferFunction tf;
-  std::optional<LabelSet> enabled;
-  std::string name = o.scene.volume;
-  if (is_procedural_spec(o.scene.volume)) {
-    source = parse_volume_spec(o.scene.volume);
-    if (!o.scene.enable.empty()) throw InputError("--enable", "label subsets of procedural volumes are not supported");
-    tf = o.scene.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.scene.tf);
-  } else {
-    LoadedScene ls = load_scene(o.scene);
-    name = ls.name;
-    tf = ls.tf;
-    enabled = ls.enabled;
-    auto vol = std::make_shared<const Volume>(std::move(ls.volume));
-    std::shared_ptr<const Volume> lab;
-    if (!ls.labels.empty()) lab = std::make_shared<const Volume>(std::move(ls.labels));
-    source = std::make_shared<MemoryVolumeSource>(vol, lab, name);
-  }
+  SourceScene ss = load_source_scene(o.scene, true);
+  const std::shared_ptr<const VolumeSource>& source = ss.source;
+  const TransferFunction& tf = ss.tf;
+  const std::optional<LabelSet>& enabled = ss.enabled;
+  const std::string& name = ss.name;
   rs.iso = std::isnan(o.iso) ? 128.0f : o.iso;
   rs.method = SkipMethod::SparseLeap;
   CameraPath path = o.path.empty() ? orbit_path(source->desc().extent(), o.orbit) : load_camera_path(o.path);
@@ -199,12 +186,7 @@ int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
 }
 
 int run_bench(const BenchOptions& o) {
-  RenderSettings rs;
-  parse_size(o.size, rs.width, rs.height);
-  rs.mode = parse_render_mode(o.mode);
-  rs.step = o.step;
-  rs.block = o.block;
-  rs.ert = o.ert;
+  RenderSettings rs = make_render_settings(o.size, o.mode, "sparseleap", "image", o.step, o.ert, o.block, false);
   const std::vector<SkipMethod> methods = parse_methods(o.methods);
   if (o.warmup < 0 || o.warmup > 100) throw InputError("--warmup", "must be between 0 and 100");
   if (!o.csv.empty()) check_output_prefix(o.csv);

@@ -62,30 +62,12 @@ void write_text_file(const std::string& path, const std::string& text) {
 // frames; the last frame is written.
 int run_out_of_core(const RenderOptions& o, RenderSettings rs) {
   if (o.backend == "cuda") throw InputError("--backend", "cuda: out-of-core rendering runs on the CPU backend so far");
-  std::shared_ptr<const VolumeSource> source;
-  TransferFunction tf;
-  Camera camera;
-  std::optional<LabelSet> enabled;
-  std::string name = o.scene.volume;
-  if (is_procedural_spec(o.scene.volume)) {
-    source = parse_volume_spec(o.scene.volume);
-    if (!o.scene.labels.empty()) throw InputError("--labels", "a procedural volume has its own labels");
-    if (!o.scene.enable.empty()) {
-      throw InputError("--enable", "label subsets of procedural volumes are not supported (their ids are hashed)");
-    }
-    tf = o.scene.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.scene.tf);
-    camera = o.scene.camera.empty() ? default_camera(source->desc().extent()) : load_camera(o.scene.camera);
-  } else {
-    LoadedScene ls = load_scene(o.scene);
-    name = ls.name;
-    tf = ls.tf;
-    camera = ls.camera;
-    enabled = ls.enabled;
-    auto vol = std::make_shared<const Volume>(std::move(ls.volume));
-    std::shared_ptr<const Volume> lab;
-    if (!ls.labels.empty()) lab = std::make_shared<const Volume>(std::move(ls.labels));
-    source = std::make_shared<MemoryVolumeSource>(vol, lab, name);
-  }
+  SourceScene ss = load_source_scene(o.scene, true);
+  const std::shared_ptr<const VolumeSource>& source = ss.source;
+  const TransferFunction& tf = ss.tf;
+  const Camera& camera = ss.camera;
+  const std::optional<LabelSet>& enabled = ss.enabled;
+  const std::string& name = ss.name;
   if (rs.mode == RenderMode::Labels && !enabled) {
     throw InputError("--mode", "labels mode out of core needs --enable (the set of labels to show)");
   }
@@ -124,19 +106,7 @@ int run_out_of_core(const RenderOptions& o, RenderSettings rs) {
 }
 
 int run_render(const RenderOptions& o) {
-  RenderSettings rs;
-  parse_size(o.size, rs.width, rs.height);
-  rs.mode = parse_render_mode(o.mode);
-  rs.method = parse_skip_method(o.method);
-  rs.step = o.step;
-  rs.ert = o.ert;
-  rs.block = o.block;
-  rs.boxes_overlay = o.boxes;
-  if (o.view == "depth-complexity") {
-    rs.depth_complexity_view = true;
-  } else if (o.view != "image") {
-    throw InputError("--view", "unknown view '" + o.view + "' (expected image or depth-complexity)");
-  }
+  RenderSettings rs = make_render_settings(o.size, o.mode, o.method, o.view, o.step, o.ert, o.block, o.boxes);
   check_output_prefix(o.out);
   if (!o.stats_json.empty()) check_output_prefix(o.stats_json);
 

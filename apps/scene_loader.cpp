@@ -36,6 +36,51 @@ GeneratedVolume load_builtin(const std::string& spec) {
 
 }  // namespace
 
+RenderSettings make_render_settings(const std::string& size, const std::string& mode, const std::string& method,
+                                    const std::string& view, float step, bool ert, int block, bool boxes) {
+  RenderSettings rs;
+  parse_size(size, rs.width, rs.height);
+  rs.mode = parse_render_mode(mode);
+  rs.method = parse_skip_method(method);
+  rs.step = step;
+  rs.ert = ert;
+  rs.block = block;
+  rs.boxes_overlay = boxes;
+  if (view == "depth-complexity") {
+    rs.depth_complexity_view = true;
+  } else if (view != "image") {
+    throw InputError("--view", "unknown view '" + view + "' (expected image or depth-complexity)");
+  }
+  return rs;
+}
+
+SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
+  SourceScene s;
+  if (is_procedural_spec(o.volume)) {
+    if (!o.labels.empty()) throw InputError("--labels", "a procedural volume has its own labels");
+    if (!o.enable.empty()) {
+      throw InputError("--enable", "label subsets of procedural volumes are not supported (their ids are hashed)");
+    }
+    s.source = parse_volume_spec(o.volume);
+    s.name = o.volume;
+    s.desc = s.source->desc();
+    s.tf = o.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.tf);
+    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
+    return s;
+  }
+  LoadedScene ls = load_scene(o);
+  s.name = ls.name;
+  s.desc = ls.volume.desc();
+  s.label_count = ls.label_count;
+  s.tf = std::move(ls.tf);
+  s.camera = ls.camera;
+  s.enabled = std::move(ls.enabled);
+  s.volume = std::make_shared<const Volume>(std::move(ls.volume));
+  if (!ls.labels.empty()) s.labels = std::make_shared<const Volume>(std::move(ls.labels));
+  if (out_of_core) s.source = std::make_shared<MemoryVolumeSource>(s.volume, s.labels, s.name);
+  return s;
+}
+
 LoadedScene load_scene(const SceneOptions& o) {
   LoadedScene s;
   if (o.volume.empty() || o.volume.rfind("builtin:", 0) == 0) {

@@ -2,10 +2,13 @@
 // options, shared by render, bench and view.
 #pragma once
 
+#include <memory>
 #include <optional>
 #include <string>
 
+#include "cache/volume_source.h"
 #include "core/camera.h"
+#include "core/cpu_renderer.h"
 #include "core/labels.h"
 #include "core/transfer_function.h"
 #include "core/volume.h"
@@ -37,5 +40,26 @@ LoadedScene load_scene(const SceneOptions& o);
 
 // Parses "WxH"; InputError("--size", ...) otherwise.
 void parse_size(const std::string& s, int& w, int& h);
+
+// The frame options render, bench and view share, checked before any (slow) data load.
+RenderSettings make_render_settings(const std::string& size, const std::string& mode, const std::string& method,
+                                    const std::string& view, float step, bool ert, int block, bool boxes);
+
+// A scene whose data may also be read out of core: a volume in memory (rendered in core, or through
+// the brick cache when `out_of_core`), or a procedural source that exists only as bricks (always out
+// of core, DESIGN.md §4). Procedural sources have their own hashed label ids: no --labels/--enable.
+struct SourceScene {
+  std::string name;
+  VolumeDesc desc;
+  std::shared_ptr<const Volume> volume;  // null for a procedural source
+  std::shared_ptr<const Volume> labels;  // null without a label volume
+  std::uint32_t label_count = 0;
+  TransferFunction tf;
+  Camera camera;
+  std::optional<LabelSet> enabled;
+  std::shared_ptr<const VolumeSource> source;  // set when rendering out of core
+  bool out_of_core() const { return source != nullptr; }
+};
+SourceScene load_source_scene(const SceneOptions& o, bool out_of_core);
 
 }  // namespace sl::app

@@ -141,32 +141,14 @@ struct RayCaster {
         case RenderMode::Dvr: {
           if (!visible_label(pos, ctx)) break;
           const vec4 c = p.tf.lookup(v);
-          if (c.w > 0.0f) {
-            const float w = (1.0f - acc.alpha) * c.w;
-            acc.color += w * vec3(c);
-            acc.alpha += w;
-            ++acc.useful_samples;
-            if (p.ert && acc.alpha >= p.ert_threshold) {
-              acc.done = true;
-              return false;
-            }
-          }
+          if (c.w > 0.0f && !composite(vec3(c), c.w, acc)) return false;
           break;
         }
         case RenderMode::Labels: {
           const std::uint32_t id = volume.label_at(pos, ctx);
           if (id == 0u || !p.labels.enabled(id)) break;
           const float a = p.tf.lookup(v).w;
-          if (a > 0.0f) {
-            const float w = (1.0f - acc.alpha) * a;
-            acc.color += w * label_color(id);
-            acc.alpha += w;
-            ++acc.useful_samples;
-            if (p.ert && acc.alpha >= p.ert_threshold) {
-              acc.done = true;
-              return false;
-            }
-          }
+          if (a > 0.0f && !composite(label_color(id), a, acc)) return false;
           break;
         }
         case RenderMode::Mip: {
@@ -185,6 +167,20 @@ struct RayCaster {
           break;
         }
       }
+    }
+    return true;
+  }
+
+  // Front-to-back "over" of one premultiplied contribution (DESIGN.md §8); false once early ray
+  // termination ends the ray.
+  SL_HOST_DEVICE bool composite(const vec3& rgb, float a, RayAccum& acc) const {
+    const float w = (1.0f - acc.alpha) * a;
+    acc.color += w * rgb;
+    acc.alpha += w;
+    ++acc.useful_samples;
+    if (p.ert && acc.alpha >= p.ert_threshold) {
+      acc.done = true;
+      return false;
     }
     return true;
   }

@@ -86,19 +86,7 @@ struct Drag {
 // Options checked before the (possibly slow) data load, so a typo fails at once.
 ViewSettings settings_from(const ViewerOptions& o) {
   ViewSettings v;
-  RenderSettings& rs = v.render;
-  app::parse_size(o.size, rs.width, rs.height);
-  rs.mode = parse_render_mode(o.mode);
-  rs.method = parse_skip_method(o.method);
-  rs.step = o.step;
-  rs.ert = o.ert;
-  rs.block = o.block;
-  rs.boxes_overlay = o.boxes;
-  if (o.view == "depth-complexity") {
-    rs.depth_complexity_view = true;
-  } else if (o.view != "image") {
-    throw InputError("--view", "unknown view '" + o.view + "' (expected image or depth-complexity)");
-  }
+  v.render = app::make_render_settings(o.size, o.mode, o.method, o.view, o.step, o.ert, o.block, o.boxes);
   if (!(o.scale > 0.0f && o.scale <= 1.0f)) throw InputError("--scale", "must be in (0, 1]");
   if (!(o.preview_scale > 0.0f && o.preview_scale <= 1.0f)) throw InputError("--preview-scale", "must be in (0, 1]");
   if (o.frames < 0 || o.frames > 100000) throw InputError("--frames", "must be between 0 and 100000");

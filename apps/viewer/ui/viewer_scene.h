@@ -8,24 +8,14 @@
 #include <string>
 
 #include "apps/backend.h"
+#include "apps/scene_loader.h"
 #include "apps/viewer/render_worker.h"
 #include "apps/viewer/ui/viewer.h"
 #include "cache/volume_source.h"
 
 namespace sl::viewer {
 
-struct ViewerScene {
-  std::string name;
-  VolumeDesc desc;
-  std::shared_ptr<const Volume> volume;  // null for a procedural source
-  std::shared_ptr<const Volume> labels;  // null without a label volume (and for procedural sources)
-  std::uint32_t label_count = 0;
-  TransferFunction tf;
-  Camera camera;
-  std::optional<LabelSet> enabled;
-  std::shared_ptr<const VolumeSource> source;  // set when rendering out of core
-  bool out_of_core() const { return source != nullptr; }
-};
+using ViewerScene = app::SourceScene;
 
 // Loads the data, transfer function and camera; InputError for bad files or options.
 ViewerScene load_viewer_scene(const ViewerOptions& o);
