@@ -9,7 +9,7 @@
 
 namespace sl::app {
 
-Backend choose_backend(const std::string& name) {
+Backend choose_backend(const std::string& name, std::string* notice) {
   if (name == "cpu") return Backend::Cpu;
   if (name != "auto" && name != "cuda") {
     throw InputError("--backend", "unknown backend '" + name + "' (expected auto, cpu or cuda)");
@@ -18,9 +18,15 @@ Backend choose_backend(const std::string& name) {
   const cuda::DeviceInfo info = cuda::query_devices();
   if (info.count > 0) return Backend::Cuda;
   if (name == "cuda") throw InputError("--backend", "cuda: no CUDA device available (" + info.error + ")");
-  std::fprintf(stderr, "sparseleap: no CUDA device (%s); using the CPU backend\n", info.error.c_str());
+  const std::string msg = "sparseleap: no CUDA device (" + info.error + "); using the CPU backend\n";
+  if (notice) {
+    *notice = msg;
+  } else {
+    std::fputs(msg.c_str(), stderr);
+  }
   return Backend::Cpu;
 #else
+  (void)notice;
   if (name == "cuda") throw InputError("--backend", "cuda: this build has no CUDA backend (nvcc was not found)");
   return Backend::Cpu;
 #endif

@@ -12,7 +12,9 @@ enum class Backend { Cpu, Cuda };
 
 // auto: CUDA when a device is present, else CPU (saying why on stderr); cuda: InputError when this
 // build has no CUDA backend or no CUDA device is present.
-Backend choose_backend(const std::string& name);
+// With `notice` set, the fallback message is stored there instead of printed (print it once every
+// other check has passed, so bad input stays one line).
+Backend choose_backend(const std::string& name, std::string* notice = nullptr);
 
 class FrameRenderer {
  public:

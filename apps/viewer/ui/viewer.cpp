@@ -231,7 +231,8 @@ int run_viewer(const ViewerOptions& o) {
   validate_start(s.view, o, sc);
   const int canvas_w = s.view.render.width;
   const int canvas_h = s.view.render.height;
-  const app::Backend backend = app::choose_backend(o.backend);
+  std::string backend_notice;
+  const app::Backend backend = app::choose_backend(o.backend, &backend_notice);
   RenderWorker::RenderFn render_fn = make_render_fn(sc, o, backend);
   float lo = 0.0f, hi = 255.0f;
   if (sc.volume) {
@@ -256,6 +257,7 @@ int run_viewer(const ViewerOptions& o) {
     std::fprintf(stderr, "sparseleap: error: view: %s\n", e.what());
     return 1;
   }
+  if (!backend_notice.empty()) std::fputs(backend_notice.c_str(), stderr);  // all checks passed
   FrameTexture texture;
   // Declared after the window: destroyed first, so it never wakes a terminated GLFW.
   RenderWorker worker(sc.volume.get(), sc.labels.get(), std::move(render_fn), &Window::wake);
