@@ -1,5 +1,7 @@
 #include "cache/generate.h"
 
+#include "cache/neurite_tubes.h"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
@@ -74,7 +76,7 @@ std::vector<std::vector<std::uint32_t>> bin_by_slab(std::size_t count, const ive
 // ---- neurites ------------------------------------------------------------------------------------
 
 constexpr float kStep = 1.5f;          // path sampling step (voxels): capsules this long
-constexpr float kHalfWidth = 0.75f;    // the profile falls from 1 to 0 over [-0.75, +0.75] around the surface
+using neurites::kHalfWidth;  // the profile falls from 1 to 0 over [-0.75, +0.75] around the surface
 constexpr float kNeuriteFill = 0.02f;  // estimated non-zero fraction to aim for; overlaps bring it to ~2 %
 
 struct Capsule {  // one piece of a tube: segment a-b, radius varying linearly from ra to rb
@@ -175,7 +177,7 @@ std::vector<Capsule> neurite_capsules(const ivec3& dims, std::uint32_t seed, std
   return caps;
 }
 
-GeneratedVolume neurites(const ivec3& dims, std::uint32_t seed) {
+GeneratedVolume neurite_volume(const ivec3& dims, std::uint32_t seed) {
   GeneratedVolume g;
   const std::vector<Capsule> caps = neurite_capsules(dims, seed, g.label_count);
   g.intensity = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::U8}, "gen");
@@ -207,20 +209,12 @@ GeneratedVolume neurites(const ivec3& dims, std::uint32_t seed) {
             const std::size_t row = std::size_t(z) * slice + std::size_t(y) * std::size_t(dims.x);
             float* best_row = best.data() + std::size_t(z - z0) * slice + std::size_t(y) * std::size_t(dims.x);
             for (int x = lo.x; x <= hi.x; ++x) {
-              const vec3 pa = vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) - c.a;
-              const float t = std::clamp(glm::dot(pa, ab) * inv_len2, 0.0f, 1.0f);
-              const vec3 q = pa - t * ab;
-              const float sd = std::sqrt(glm::dot(q, q)) - (c.ra + t * (c.rb - c.ra));
-              if (sd >= kHalfWidth) continue;
-              const float u = std::min((kHalfWidth - sd) * (1.0f / (2.0f * kHalfWidth)), 1.0f);
-              const float profile = u * u * (3.0f - 2.0f * u);  // smoothstep: 1/2 on the surface
-              const bool core = profile >= 0.5f;
-              // Outside the core, cap below 128 so "intensity >= 128 implies labelled" holds exactly.
-              const int v = std::min(int(c.brightness * profile + 0.5f), core ? 255 : 127);
+              neurites::TubeVoxel tv;
+              if (!neurites::tube_voxel(c.a, ab, inv_len2, c.ra, c.rb, c.brightness, x, y, z, tv)) continue;
               std::uint8_t& out = intensity[row + std::size_t(x)];
-              out = std::uint8_t(std::max(int(out), v));
-              if (core && sd < best_row[x]) {
-                best_row[x] = sd;
+              out = std::uint8_t(std::max(int(out), tv.value));
+              if (tv.core && tv.sd < best_row[x]) {
+                best_row[x] = tv.sd;
                 labels[row + std::size_t(x)] = c.id;
               }
             }
@@ -347,7 +341,7 @@ GeneratedVolume generate_volume(const std::string& kind, ivec3 dims, std::uint32
   }
   // Check before any work; labelled kinds need room for the u16 labels too (the larger volume).
   validate_desc(VolumeDesc{dims, vec3(1.0f), labelled ? VoxelType::U16 : VoxelType::F32}, "gen");
-  if (kind == "neurites") return neurites(dims, seed);
+  if (kind == "neurites") return neurite_volume(dims, seed);
   if (kind == "blobs") return blobs(dims, seed);
   return sphere(dims);
 }

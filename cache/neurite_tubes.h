@@ -12,6 +12,7 @@
 #pragma once
 
 #include <cstdint>
+#include <cmath>
 #include <vector>
 
 #include "core/math.h"
@@ -31,6 +32,29 @@ inline constexpr float kPi = 3.14159265358979f;
 // 2 pi * 0.1 * kHalfWidth^2 (the profile is antisymmetric about the surface, so only the first
 // moment survives). Tube mass per unit length = brightness * cross_section(r).
 inline float cross_section(float r) { return kPi * r * r + 0.2f * kPi * kHalfWidth * kHalfWidth; }
+
+// One voxel of a tube piece (segment a-b, radius ra -> rb): the intensity profile both neurite
+// generators use (the in-memory `gen` and the procedural source), so their data look alike. `ab` and
+// `inv_len2` are the segment and 1 / |ab|^2. Returns false when the voxel centre is out of reach.
+struct TubeVoxel {
+  float sd = 0.0f;  // signed distance of the voxel centre to the tube surface
+  int value = 0;    // u8 intensity
+  bool core = false;  // inside the labelled core (profile >= 1/2)
+};
+inline bool tube_voxel(const vec3& a, const vec3& ab, float inv_len2, float ra, float rb, float brightness, int x,
+                       int y, int z, TubeVoxel& out) {
+  const vec3 pa = vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) - a;
+  const float t = glm::clamp(glm::dot(pa, ab) * inv_len2, 0.0f, 1.0f);
+  const vec3 q = pa - t * ab;
+  out.sd = std::sqrt(glm::dot(q, q)) - (ra + t * (rb - ra));
+  if (out.sd >= kHalfWidth) return false;
+  const float u = glm::min((kHalfWidth - out.sd) * (1.0f / (2.0f * kHalfWidth)), 1.0f);
+  const float profile = u * u * (3.0f - 2.0f * u);  // smoothstep: 1/2 on the surface
+  out.core = profile >= 0.5f;
+  // Outside the core, cap below 128 so "intensity >= 128 implies labelled" holds exactly.
+  out.value = glm::min(int(brightness * profile + 0.5f), out.core ? 255 : 127);
+  return true;
+}
 
 struct Params {
   ivec3 dims{0};

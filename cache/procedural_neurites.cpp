@@ -129,21 +129,13 @@ void rasterize(const Capsule& c, ivec3 lo, ivec3 hi, ivec3 org, ivec3 ext, std::
     for (int y = lo.y; y <= hi.y; ++y) {
       const std::size_t row = (std::size_t(z - org.z) * ext.y + std::size_t(y - org.y)) * ext.x;
       for (int x = lo.x; x <= hi.x; ++x) {
-        const vec3 pa = vec3(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f) - c.a;
-        const float t = std::clamp(glm::dot(pa, ab) * inv_len2, 0.0f, 1.0f);
-        const vec3 q = pa - t * ab;
-        const float sd = std::sqrt(glm::dot(q, q)) - (c.ra + t * (c.rb - c.ra));
-        if (sd >= kHalfWidth) continue;
-        const float u = std::min((kHalfWidth - sd) * (1.0f / (2.0f * kHalfWidth)), 1.0f);
-        const float profile = u * u * (3.0f - 2.0f * u);  // smoothstep: 1/2 on the surface
-        const bool core = profile >= 0.5f;
-        // Outside the core, cap below 128 so "intensity >= 128 implies labelled" holds exactly.
-        const int v = std::min(int(c.brightness * profile + 0.5f), core ? 255 : 127);
+        TubeVoxel tv;
+        if (!tube_voxel(c.a, ab, inv_len2, c.ra, c.rb, c.brightness, x, y, z, tv)) continue;
         const std::size_t i = row + std::size_t(x - org.x);
-        inten[i] = std::uint8_t(std::max(int(inten[i]), v));
+        inten[i] = std::uint8_t(std::max(int(inten[i]), tv.value));
         // Deepest core wins; ties go to the larger id so every brick agrees on shared (apron) voxels.
-        if (core && (sd < best[i] || (sd == best[i] && c.id > label[i]))) {
-          best[i] = sd;
+        if (tv.core && (tv.sd < best[i] || (tv.sd == best[i] && c.id > label[i]))) {
+          best[i] = tv.sd;
           label[i] = c.id;
         }
       }
