@@ -304,10 +304,7 @@ int run_bench(const BenchOptions& o) {
 Runner add_bench_command(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
   CLI::App* c = app.add_subcommand("bench", "Replay a camera path once per method; summary table, CSV and JSON");
-  c->add_option("--volume", o->scene.volume, "NRRD or builtin:KIND[:XxYxZ[:SEED]]; default builtin:neurites");
-  c->add_option("--labels", o->scene.labels, "Label volume (NRRD)");
-  c->add_option("--tf", o->scene.tf, "Transfer function JSON");
-  c->add_option("--enable", o->scene.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
+  add_scene_options(*c, o->scene, false);
   c->add_option("--path", o->path, "Camera path JSON (keyframes); default: an orbit");
   c->add_option("--orbit", o->orbit, "Frames of the generated orbit")->capture_default_str();
   c->add_option("--methods", o->methods, "Comma-separated methods")->capture_default_str();

@@ -147,11 +147,7 @@ int run_render(const RenderOptions& o) {
 Runner add_render_command(CLI::App& app) {
   auto o = std::make_shared<RenderOptions>();
   CLI::App* c = app.add_subcommand("render", "Render one frame to PREFIX.png and PREFIX.exr");
-  c->add_option("--volume", o->scene.volume, "Volume: NRRD (.nrrd/.nhdr), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
-  c->add_option("--labels", o->scene.labels, "Label volume (NRRD, integer type, same dims)");
-  c->add_option("--tf", o->scene.tf, "Transfer function JSON");
-  c->add_option("--camera", o->scene.camera, "Camera JSON");
-  c->add_option("--enable", o->scene.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
+  add_scene_options(*c, o->scene, true);
   c->add_option("--size", o->size, "Image size WxH")->capture_default_str();
   c->add_option("--mode", o->mode, "dvr, mip, iso or labels")->capture_default_str();
   c->add_option("--method", o->method, "none, bbox, octree or sparseleap")->capture_default_str();

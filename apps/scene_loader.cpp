@@ -1,5 +1,6 @@
 #include "apps/scene_loader.h"
 
+#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <regex>
 
@@ -35,6 +36,16 @@ GeneratedVolume load_builtin(const std::string& spec) {
 }
 
 }  // namespace
+
+void add_scene_options(CLI::App& c, SceneOptions& s, bool camera) {
+  c.add_option("--volume", s.volume,
+               "Volume: NRRD (.nrrd/.nhdr), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; "
+               "default builtin:neurites (256^3)");
+  c.add_option("--labels", s.labels, "Label volume (NRRD, integer type, same dims)");
+  c.add_option("--tf", s.tf, "Transfer function JSON");
+  if (camera) c.add_option("--camera", s.camera, "Camera JSON");
+  c.add_option("--enable", s.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
+}
 
 RenderSettings make_render_settings(const std::string& size, const std::string& mode, const std::string& method,
                                     const std::string& view, float step, bool ert, int block, bool boxes) {

@@ -13,6 +13,10 @@
 #include "core/transfer_function.h"
 #include "core/volume.h"
 
+namespace CLI {
+class App;
+}
+
 namespace sl::app {
 
 struct SceneOptions {
@@ -32,6 +36,10 @@ struct LoadedScene {
   std::optional<LabelSet> enabled;
   std::string name;     // what was loaded, for messages
 };
+
+// Registers --volume, --labels, --tf, --enable (and --camera when `camera`) on a subcommand: the
+// scene options render, bench and view share.
+void add_scene_options(CLI::App& c, SceneOptions& s, bool camera);
 
 // Built-in data set: neurites, generated in memory (no file needed).
 constexpr int kBuiltinSize = 256;

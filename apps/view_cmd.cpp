@@ -17,12 +17,7 @@ Runner add_view_command(CLI::App& app) {
   CLI::App* c = app.add_subcommand(
       "view", "Interactive window: orbit/pan/zoom, method and mode switches, b-box and depth-complexity views, "
               "transfer-function and label editing, stats, camera-path recording");
-  c->add_option("--volume", o->scene.volume, "Volume: NRRD (.nrrd/.nhdr), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED] "
-                "(out of core); default builtin:neurites (256^3)");
-  c->add_option("--labels", o->scene.labels, "Label volume (NRRD, integer type, same dims)");
-  c->add_option("--tf", o->scene.tf, "Transfer function JSON (also the editor's load/save file)");
-  c->add_option("--camera", o->scene.camera, "Camera JSON (the home view; R returns to it)");
-  c->add_option("--enable", o->scene.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
+  add_scene_options(*c, o->scene, true);
   c->add_option("--size", o->size, "Rendered canvas WxH (the window adds a control panel at its left)")->capture_default_str();
   c->add_option("--method", o->method, "none, bbox, octree or sparseleap (keys 1-4)")->capture_default_str();
   c->add_option("--mode", o->mode, "dvr, mip, iso or labels (key M cycles)")->capture_default_str();
