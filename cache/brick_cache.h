@@ -20,6 +20,7 @@
 #include "cache/brick.h"
 #include "core/config.h"
 #include "core/math.h"
+#include "core/sampling.h"
 #include "core/volume.h"
 
 namespace sl {
@@ -46,17 +47,11 @@ struct SlotSampler {
     // outside the slot), inside it is a no-op.
     const int lx = clampi(x0 - first.x), ly = clampi(y0 - first.y), lz = clampi(z0 - first.z);
     const std::int64_t sx = stored, sxy = std::int64_t(stored) * stored;
-    const T* b = data;
-    const std::int64_t r00 = lz * sxy + ly * sx, r01 = lz * sxy + (ly + 1) * sx;
-    const std::int64_t r10 = (lz + 1) * sxy + ly * sx, r11 = (lz + 1) * sxy + (ly + 1) * sx;
-    const int x1 = lx + 1;
-    const float c00 = float(b[r00 + lx]) + fx * (float(b[r00 + x1]) - float(b[r00 + lx]));
-    const float c01 = float(b[r01 + lx]) + fx * (float(b[r01 + x1]) - float(b[r01 + lx]));
-    const float c10 = float(b[r10 + lx]) + fx * (float(b[r10 + x1]) - float(b[r10 + lx]));
-    const float c11 = float(b[r11 + lx]) + fx * (float(b[r11 + x1]) - float(b[r11 + lx]));
-    const float c0 = c00 + fy * (c01 - c00);
-    const float c1 = c10 + fy * (c11 - c10);
-    return c0 + fz * (c1 - c0);
+    const T* b = data + lx;
+    // x1 = lx + 1 always exists in the slot (apron); where DenseGrid clamps x1 to x0 at the volume's
+    // edge the apron repeats the edge voxel, so the blend is the same.
+    return trilerp(b + (lz * sxy + ly * sx), b + (lz * sxy + (ly + 1) * sx), b + ((lz + 1) * sxy + ly * sx),
+                   b + ((lz + 1) * sxy + (ly + 1) * sx), 1, fx, fy, fz);
   }
   // Label of the voxel containing p (nearest neighbour), as DenseGrid::label_at.
   SL_HOST_DEVICE std::uint32_t label_at(const vec3& p) const {

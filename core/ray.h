@@ -10,7 +10,7 @@ namespace sl {
 struct Ray {
   vec3 origin{0.0f};
   vec3 dir{0.0f, 0.0f, 1.0f};  // normalised; t is world distance along it
-  SL_HOST_DEVICE vec3 at(float t) const { return origin + t * dir; }
+  SL_HOST_DEVICE SL_INLINE vec3 at(float t) const { return origin + t * dir; }
 };
 
 struct Box3 {

@@ -25,7 +25,7 @@ struct LodParams {
   float pixel_size = 0.0f;     // orthographic: footprint = pixel_size
   float inv_voxel = 1.0f;      // 1 / level-0 voxel size (min spacing) times the bias
 
-  SL_HOST_DEVICE int level_at(float t) const {
+  SL_HOST_DEVICE SL_INLINE int level_at(float t) const {
     if (pinned >= 0) return pinned;
     if (levels <= 1) return 0;
     const float ratio = (pixel_size > 0.0f ? pixel_size : t * pixel_angle) * inv_voxel;
@@ -48,8 +48,8 @@ struct DenseSampler {
   DenseGrid<VolT> volume;
   DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
 
-  SL_HOST_DEVICE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
-  SL_HOST_DEVICE std::uint32_t label_at(const vec3& p, const SampleContext&) const {
+  SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
+  SL_HOST_DEVICE SL_INLINE std::uint32_t label_at(const vec3& p, const SampleContext&) const {
     return labels.data ? labels.label_at(p) : 0u;
   }
   SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing, const SampleContext&) const {
@@ -111,7 +111,7 @@ struct RayCaster {
   CastParams p;
   Sampler volume;
 
-  SL_HOST_DEVICE bool visible_label(const vec3& pos, const SampleContext& c) const {
+  SL_HOST_DEVICE SL_INLINE bool visible_label(const vec3& pos, const SampleContext& c) const {
     return !p.label_mask || p.labels.enabled(volume.label_at(pos, c));
   }
 
@@ -120,6 +120,20 @@ struct RayCaster {
   SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc,
                             bool unknown = false) const {
     if (acc.done) return false;
+    // The loop works on local copies (of the caster too): through references the compiler must
+    // assume a store to the accumulator may change the sampler's or the table's fields and reloads
+    // them every sample; locals whose address never escapes stay in registers.
+    RayAccum a = acc;
+    const Ray r = ray;
+    const RayCaster self = *this;
+    const bool alive = self.march_local(r, t_entry, k0, k1, a, unknown);
+    acc = a;
+    return alive;
+  }
+
+ private:
+  SL_HOST_DEVICE SL_INLINE bool march_local(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc,
+                                            bool unknown) const {
     SampleContext ctx;
     ctx.occupancy_unknown = unknown;
     if (p.mode == RenderMode::Iso && k0 > 0 && acc.prev_k != k0 - 1 && k0 < k1) {
@@ -138,17 +152,21 @@ struct RayCaster {
       const float v = volume.sample(pos, ctx);
       ++acc.samples;
       switch (p.mode) {
+        // Opacity first: the label fetch and the colour are read only for samples that can
+        // contribute (the order of the tests does not change which samples composite).
         case RenderMode::Dvr: {
-          if (!visible_label(pos, ctx)) break;
-          const vec4 c = p.tf.lookup(v);
-          if (c.w > 0.0f && !composite(vec3(c), c.w, acc)) return false;
+          const TransferFunctionView::Coord tc = p.tf.coord(v);
+          const float a = p.tf.alpha_at(tc);
+          if (!(a > 0.0f) || !visible_label(pos, ctx)) break;
+          if (!composite(p.tf.rgb_at(tc), a, acc)) return false;
           break;
         }
         case RenderMode::Labels: {
+          const float a = p.tf.alpha_at(p.tf.coord(v));
+          if (!(a > 0.0f)) break;
           const std::uint32_t id = volume.label_at(pos, ctx);
           if (id == 0u || !p.labels.enabled(id)) break;
-          const float a = p.tf.lookup(v).w;
-          if (a > 0.0f && !composite(label_color(id), a, acc)) return false;
+          if (!composite(label_color(id), a, acc)) return false;
           break;
         }
         case RenderMode::Mip: {
@@ -171,9 +189,10 @@ struct RayCaster {
     return true;
   }
 
+ public:
   // Front-to-back "over" of one premultiplied contribution (DESIGN.md §8); false once early ray
   // termination ends the ray.
-  SL_HOST_DEVICE bool composite(const vec3& rgb, float a, RayAccum& acc) const {
+  SL_HOST_DEVICE SL_INLINE bool composite(const vec3& rgb, float a, RayAccum& acc) const {
     const float w = (1.0f - acc.alpha) * a;
     acc.color += w * rgb;
     acc.alpha += w;

@@ -22,14 +22,31 @@ struct TransferFunctionView {
   float vmin = 0.0f;
   float inv_step = 0.0f;  // entries per data unit (0 for a constant function)
 
-  SL_HOST_DEVICE vec4 lookup(float v) const {
+  // Table position of value v: entry i and the fraction f towards entry i + 1.
+  struct Coord {
+    int i;
+    float f;
+  };
+  SL_HOST_DEVICE SL_INLINE Coord coord(float v) const {
     float x = (v - vmin) * inv_step;
     const float last = float(size - 1);
     x = x < 0.0f ? 0.0f : (x > last ? last : x);
     int i = int(x);
     if (i > size - 2) i = size - 2;
-    const float f = x - float(i);
-    return table[i] + f * (table[i + 1] - table[i]);
+    return {i, x - float(i)};
+  }
+  // The casters read opacity first and colour only where it is non-zero (most samples of sparse data
+  // are transparent). Component for component the same arithmetic as lookup().
+  SL_HOST_DEVICE SL_INLINE float alpha_at(Coord c) const {
+    return table[c.i].w + c.f * (table[c.i + 1].w - table[c.i].w);
+  }
+  SL_HOST_DEVICE SL_INLINE vec3 rgb_at(Coord c) const {
+    const vec3 a(table[c.i]), b(table[c.i + 1]);
+    return a + c.f * (b - a);
+  }
+  SL_HOST_DEVICE SL_INLINE vec4 lookup(float v) const {
+    const Coord c = coord(v);
+    return table[c.i] + c.f * (table[c.i + 1] - table[c.i]);
   }
 };
 
