@@ -54,8 +54,8 @@ int run_gen(const GenOptions& o) {
 
 Runner add_gen_command(CLI::App& app) {
   auto o = std::make_shared<GenOptions>();
-  CLI::App* c = app.add_subcommand("gen", "Generate a synthetic volume (neurites, blobs, sphere) as NRRD");
-  c->add_option("kind", o->kind, "neurites, blobs or sphere")->required();
+  CLI::App* c = app.add_subcommand("gen", "Generate a synthetic volume (neurites, blobs, organs, sphere) as NRRD");
+  c->add_option("kind", o->kind, "neurites, blobs, organs or sphere")->required();
   c->add_option("--dims", o->dims, "Dimensions XxYxZ (any sizes)")->capture_default_str();
   c->add_option("--out", o->out, "Output NRRD (.nrrd attached, .nhdr detached); default KIND.nrrd");
   c->add_option("--labels-out", o->labels_out, "Label volume output; default OUT_labels.nrrd");

@@ -311,6 +311,67 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
   return g;
 }
 
+// ---- organs --------------------------------------------------------------------------------------
+
+// A few large segments filling most of the volume (shaped like the King Snake data set of the
+// SparseLeap paper, Table 1: 4 segments, about 74 % occupancy). The body is a superellipsoid
+// |x|^4 + |y|^4 + |z|^4 <= 1 scaled to 0.97 of the box (about 74 % of the voxels); labels: 1 skin
+// (the outer 12 % of the body's radius), 2 body (the rest), 3 spine (a tube of radius 0.07 of the
+// smallest dimension along a sine curve in x), 4 heart (a sphere of radius 0.12 of the smallest
+// dimension, well under 1 % of the voxels). Intensity: a base value per label, modulated by a smooth
+// pattern so that transfer functions show structure; 0 outside.
+GeneratedVolume organs(const ivec3& dims, std::uint32_t seed) {
+  Rng rng(seed, 1);
+  const vec3 box(dims);
+  const vec3 centre = 0.5f * box;
+  const vec3 half = 0.485f * box;  // 0.97 of the box
+  const float small = float(std::min(dims.x, std::min(dims.y, dims.z)));
+  const float spine_r = std::max(1.0f, 0.07f * small);
+  const float spine_amp = 0.15f * float(dims.y), spine_freq = rng.uniform(1.5f, 2.5f) * 2.0f * kPi / float(dims.x);
+  const float spine_phase = rng.uniform(0.0f, 2.0f * kPi);
+  const vec3 heart = centre + vec3(rng.uniform(-0.2f, 0.2f), rng.uniform(0.1f, 0.2f), rng.uniform(-0.1f, 0.1f)) * box;
+  const float heart_r = std::max(1.0f, 0.12f * small);
+  const float skin_level = std::pow(0.88f, 4.0f);
+  static constexpr std::uint8_t kBase[5] = {0, 200, 90, 240, 160};
+
+  GeneratedVolume g;
+  g.label_count = 4;
+  g.intensity = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::U8}, "gen");
+  g.labels = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::U16}, "gen");
+  std::uint8_t* intensity = g.intensity.as<std::uint8_t>();
+  std::uint16_t* labels = g.labels.as<std::uint16_t>();
+  tbb::parallel_for(tbb::blocked_range<int>(0, dims.z), [&](const tbb::blocked_range<int>& r) {
+    for (int z = r.begin(); z != r.end(); ++z) {
+      for (int y = 0; y < dims.y; ++y) {
+        const std::size_t row = (std::size_t(z) * std::size_t(dims.y) + std::size_t(y)) * std::size_t(dims.x);
+        for (int x = 0; x < dims.x; ++x) {
+          const vec3 p(float(x) + 0.5f, float(y) + 0.5f, float(z) + 0.5f);
+          const vec3 q = (p - centre) / half;
+          const vec3 q2 = q * q;
+          const float s = q2.x * q2.x + q2.y * q2.y + q2.z * q2.z;
+          std::uint16_t id = 0;
+          if (s <= 1.0f) {
+            id = s > skin_level ? 1 : 2;
+            const float sy = centre.y + spine_amp * std::sin(spine_freq * p.x + spine_phase);
+            const float dy = p.y - sy, dz = p.z - centre.z;
+            if (id == 2 && dy * dy + dz * dz <= spine_r * spine_r) id = 3;
+            const vec3 dh = p - heart;
+            if (id == 2 && glm::dot(dh, dh) <= heart_r * heart_r) id = 4;
+          }
+          labels[row + std::size_t(x)] = id;
+          if (id == 0) {
+            intensity[row + std::size_t(x)] = 0;
+          } else {
+            const float pattern = 0.5f + 0.5f * std::sin(0.11f * p.x) * std::cos(0.07f * p.y + 0.05f * p.z);
+            intensity[row + std::size_t(x)] = std::uint8_t(float(kBase[id]) * (0.8f + 0.2f * pattern) + 0.5f);
+          }
+        }
+      }
+    }
+  });
+  return g;
+}
+
 // ---- sphere --------------------------------------------------------------------------------------
 
 GeneratedVolume sphere(const ivec3& dims) {
@@ -335,14 +396,15 @@ GeneratedVolume sphere(const ivec3& dims) {
 }  // namespace
 
 GeneratedVolume generate_volume(const std::string& kind, ivec3 dims, std::uint32_t seed) {
-  const bool labelled = kind == "neurites" || kind == "blobs";
+  const bool labelled = kind == "neurites" || kind == "blobs" || kind == "organs";
   if (!labelled && kind != "sphere") {
-    throw InputError("gen", "unknown kind '" + kind + "' (expected neurites, blobs or sphere)");
+    throw InputError("gen", "unknown kind '" + kind + "' (expected neurites, blobs, organs or sphere)");
   }
   // Check before any work; labelled kinds need room for the u16 labels too (the larger volume).
   validate_desc(VolumeDesc{dims, vec3(1.0f), labelled ? VoxelType::U16 : VoxelType::F32}, "gen");
   if (kind == "neurites") return neurite_volume(dims, seed);
   if (kind == "blobs") return blobs(dims, seed);
+  if (kind == "organs") return organs(dims, seed);
   return sphere(dims);
 }
 

@@ -28,6 +28,9 @@ struct GeneratedVolume {
 //  - "blobs": dense sum of truncated Gaussians, about 30 % of voxels non-zero, intensity u8 (1.0 of
 //    summed amplitude = 255); labels u16 = 1 + index of the dominant Gaussian where its own value
 //    exceeds 0.1 (of full scale), else 0.
+//  - "organs": a few large segments filling most of the volume (like the paper's King Snake): a
+//    superellipsoid body, about 74 % of the voxels, labelled skin (1), body (2), spine (3) and heart
+//    (4, under 1 %); intensity u8 per label with a smooth pattern; labels u16.
 //  - "sphere": f32, the distance of the voxel centre from the volume centre (dims / 2) in voxels, so
 //    the isosurface at value r is a sphere of radius r. No labels.
 // Throws InputError("gen", ...) for an unknown kind or invalid dims (validate_desc).

@@ -34,10 +34,10 @@ TEST(Generate, UnknownKindAndBadDims) {
     generate_volume("cubes", {8, 8, 8});
     ADD_FAILURE() << "no throw";
   } catch (const InputError& e) {
-    EXPECT_STREQ(e.what(), "gen: unknown kind 'cubes' (expected neurites, blobs or sphere)");
+    EXPECT_STREQ(e.what(), "gen: unknown kind 'cubes' (expected neurites, blobs, organs or sphere)");
   }
   for (const ivec3 dims : {ivec3(0, 8, 8), ivec3(8, -1, 8), ivec3(8, 8, 0)}) {
-    for (const char* kind : {"neurites", "blobs", "sphere"}) {
+    for (const char* kind : {"neurites", "blobs", "organs", "sphere"}) {
       EXPECT_THROW(generate_volume(kind, dims), InputError) << kind;
     }
   }
@@ -46,7 +46,7 @@ TEST(Generate, UnknownKindAndBadDims) {
 
 TEST(Generate, DeterministicForSeedAndThreadCount) {
   const ivec3 dims(61, 47, 53);
-  for (const char* kind : {"neurites", "blobs", "sphere"}) {
+  for (const char* kind : {"neurites", "blobs", "organs", "sphere"}) {
     SCOPED_TRACE(kind);
     const GeneratedVolume one = generate_with_threads(1, kind, dims, 7);
     const GeneratedVolume two = generate_with_threads(2, kind, dims, 7);
@@ -135,6 +135,26 @@ TEST(Generate, BlobsAreDenseAndLabelledByDominantGaussian) {
   EXPECT_GT(labelled, nonzero / 5);
 }
 
+TEST(Generate, OrgansAreAFewLargeSegmentsFillingMostOfTheVolume) {
+  const ivec3 dims(96, 80, 72);
+  const GeneratedVolume g = generate_volume("organs", dims, 2);
+  ASSERT_EQ(g.label_count, 4u);
+  const auto* in = g.intensity.as<std::uint8_t>();
+  const auto* lab = g.labels.as<std::uint16_t>();
+  const std::size_t n = g.intensity.desc().voxel_count();
+  std::size_t count[5] = {};
+  for (std::size_t i = 0; i < n; ++i) {
+    ASSERT_LE(lab[i], 4u);
+    ++count[lab[i]];
+    ASSERT_EQ(in[i] == 0, lab[i] == 0) << i;  // every body voxel is bright, the outside is 0
+  }
+  const double occupancy = 1.0 - double(count[0]) / double(n);
+  EXPECT_NEAR(occupancy, 0.74, 0.04);
+  for (int id = 1; id <= 4; ++id) EXPECT_GT(count[id], 0u) << id;
+  EXPECT_LT(double(count[4]) / double(n), 0.01);  // the heart: a small segment for the sparse setting
+  EXPECT_GT(count[2], count[1]);                  // the body is the largest
+}
+
 TEST(Generate, SphereIsTheDistanceFromTheCentre) {
   const ivec3 dims(64, 48, 33);
   const GeneratedVolume g = generate_volume("sphere", dims);
@@ -152,7 +172,7 @@ TEST(Generate, SphereIsTheDistanceFromTheCentre) {
 
 TEST(Generate, OddAndTinyDims) {
   for (const ivec3 dims : {ivec3(1, 1, 1), ivec3(3, 5, 7), ivec3(200, 7, 3), ivec3(2, 90, 2)}) {
-    for (const char* kind : {"neurites", "blobs", "sphere"}) {
+    for (const char* kind : {"neurites", "blobs", "organs", "sphere"}) {
       const GeneratedVolume g = generate_volume(kind, dims, 11);
       EXPECT_EQ(g.intensity.dims(), dims) << kind;
       EXPECT_EQ(g.labels.empty(), std::string(kind) == "sphere") << kind;
