@@ -25,33 +25,76 @@ struct VirtualSampler {
   std::uint32_t frame = 0;
   bool has_labels = false;
 
+  // Per-ray brick cursor. The caster marches every span on its own copy of the sampler (RayCaster::
+  // march copies itself), so these fields belong to one ray on one thread: consecutive samples in the
+  // same wanted brick reuse its page entry and slot sampler instead of a page-table lookup (and the
+  // integer division of brick_at) per sample. Reusing them gives exactly the per-sample answer: the
+  // page table does not change during a frame, and the miss insert and usage touch it skips are
+  // idempotent within a frame (the first sample in the brick did them).
+  struct Cursor {
+    int level = -1;               // level of the wanted brick (-1: none yet)
+    ivec3 lo{0}, hi{0};           // its payload voxels [lo, hi) at that level
+    vec3 inv_spacing{0.0f};       // the level's 1 / spacing (as BrickLayout::level_inv_spacing)
+    BrickId id;                   // the brick serving it (the wanted one or a resident ancestor)
+    PageEntry entry;
+    SlotSampler<T> voxels;        // valid when entry is resident
+    bool labels_ready = false;
+    SlotSampler<L> labels;        // built on first use
+  };
+  mutable Cursor cur;
+
   // Entry of the brick serving p: the wanted level if resident, else the finest resident ancestor.
-  SL_HOST_DEVICE PageEntry locate(const vec3& p, const SampleContext& c, BrickId& id) const {
-    id = layout->brick_at(c.level, p);
+  SL_HOST_DEVICE SL_INLINE const Cursor& locate(const vec3& p, const SampleContext& c) const {
+    if (c.level != cur.level) {
+      cur.level = c.level;
+      cur.inv_spacing = layout->level_inv_spacing(c.level);
+      cur.hi = ivec3(0);  // force a lookup
+      cur.lo = ivec3(1);
+    }
+    // brick_at's voxel, step for step.
+    const vec3 u = p * cur.inv_spacing;
+    const ivec3 d = layout->level_dims[c.level];
+    ivec3 v(int(glm::floor(u.x)), int(glm::floor(u.y)), int(glm::floor(u.z)));
+    v = glm::clamp(v, ivec3(0), d - 1);
+    if (v.x >= cur.lo.x && v.x < cur.hi.x && v.y >= cur.lo.y && v.y < cur.hi.y && v.z >= cur.lo.z &&
+        v.z < cur.hi.z) {
+      return cur;
+    }
+    BrickId id = layout->brick_of_voxel(c.level, v);
+    cur.lo = id.coord() * layout->brick_size;
+    cur.hi = cur.lo + layout->brick_size;
     PageEntry e = page_table.lookup(id);
     if (c.occupancy_unknown || e.state() == PageEntry::State::Unmapped) misses.insert(id);
     for (int l = c.level + 1; !e.is_resident() && e.state() == PageEntry::State::Unmapped && l < layout->levels; ++l) {
       id = layout->brick_at(l, p);
       e = page_table.lookup(id);
     }
-    if (e.is_resident()) cache.touch(e.slot(), frame);
-    return e;
+    cur.id = id;
+    cur.entry = e;
+    cur.labels_ready = false;
+    if (e.is_resident()) {
+      cache.touch(e.slot(), frame);
+      cur.voxels = cache.template sampler<T>(e.slot(), *layout, id);
+    }
+    return cur;
   }
 
-  SL_HOST_DEVICE float sample(const vec3& p, const SampleContext& c) const {
-    BrickId id;
-    const PageEntry e = locate(p, c, id);
-    if (e.is_resident()) return cache.template sampler<T>(e.slot(), *layout, id).sample(p);
-    if (e.state() == PageEntry::State::Constant) return e.constant_value(cache.voxel_type);
+  SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext& c) const {
+    const Cursor& k = locate(p, c);
+    if (k.entry.is_resident()) return k.voxels.sample(p);
+    if (k.entry.state() == PageEntry::State::Constant) return k.entry.constant_value(cache.voxel_type);
     return 0.0f;  // empty, or nothing resident yet: rendered as missing
   }
 
-  SL_HOST_DEVICE std::uint32_t label_at(const vec3& p, const SampleContext& c) const {
+  SL_HOST_DEVICE SL_INLINE std::uint32_t label_at(const vec3& p, const SampleContext& c) const {
     if (!has_labels) return 0u;
-    BrickId id;
-    const PageEntry e = locate(p, c, id);
-    if (e.is_resident()) return cache.template label_sampler<L>(e.slot(), *layout, id).label_at(p);
-    return 0u;
+    const Cursor& k = locate(p, c);
+    if (!k.entry.is_resident()) return 0u;
+    if (!k.labels_ready) {
+      cur.labels = cache.template label_sampler<L>(k.entry.slot(), *layout, k.id);
+      cur.labels_ready = true;
+    }
+    return k.labels.label_at(p);
   }
 
   SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing, const SampleContext& c) const {
