@@ -4,6 +4,7 @@
 // Compiled by the CPU backend and, unchanged, by the CUDA kernels (SL_HOST_DEVICE).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 
 #include "core/config.h"
@@ -145,6 +146,9 @@ struct RayCaster {
       acc.prev_k = k0 - 1;
       ++acc.samples;
     }
+    // The last value whose opacity was zero: runs of equal values (background, uniform regions) skip
+    // the table. The opacity is a function of the value alone, so this changes nothing but the cost.
+    float clear_v = NAN;  // compares unequal to every value
     for (int k = k0; k < k1; ++k) {
       const float t = t_entry + float(k) * p.dt;
       const vec3 pos = ray.at(t);
@@ -155,9 +159,14 @@ struct RayCaster {
         // Opacity first: the label fetch and the colour are read only for samples that can
         // contribute (the order of the tests does not change which samples composite).
         case RenderMode::Dvr: {
+          if (v == clear_v) break;
           const TransferFunctionView::Coord tc = p.tf.coord(v);
           const float a = p.tf.alpha_at(tc);
-          if (!(a > 0.0f) || !visible_label(pos, ctx)) break;
+          if (!(a > 0.0f)) {
+            clear_v = v;
+            break;
+          }
+          if (!visible_label(pos, ctx)) break;
           if (!composite(p.tf.rgb_at(tc), a, acc)) return false;
           break;
         }

@@ -41,6 +41,9 @@ SL_HOST_DEVICE SL_INLINE float trilerp(const T* r00, const T* r01, const T* r10,
         std::memcpy(&q1, r01, 2);
         std::memcpy(&q2, r10, 2);
         std::memcpy(&q3, r11, 2);
+        // All eight voxels equal (background, uniform interiors: most samples of sparse data): every
+        // lerp returns its first operand exactly, so the blend is that value.
+        if (q0 == q1 && q1 == q2 && q2 == q3 && (q0 & 0xFFu) == (q0 >> 8)) return float(q0 & 0xFFu);
         __m128i bytes = _mm_cvtsi32_si128(int(q0));
         bytes = _mm_insert_epi16(bytes, int(q1), 1);
         bytes = _mm_insert_epi16(bytes, int(q2), 2);
@@ -56,6 +59,7 @@ SL_HOST_DEVICE SL_INLINE float trilerp(const T* r00, const T* r01, const T* r10,
         std::memcpy(&p01, r01, 4);
         std::memcpy(&p10, r10, 4);
         std::memcpy(&p11, r11, 4);
+        if (p00 == p01 && p01 == p10 && p10 == p11 && (p00 & 0xFFFFu) == (p00 >> 16)) return float(p00 & 0xFFFFu);
         const __m128i words = _mm_setr_epi32(int(p00), int(p01), int(p10), int(p11));
         const __m128i zero = _mm_setzero_si128();
         const __m128 lo = _mm_cvtepi32_ps(_mm_unpacklo_epi16(words, zero));
