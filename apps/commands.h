@@ -13,5 +13,6 @@ Runner add_gen_command(CLI::App& app);
 Runner add_info_command(CLI::App& app);
 Runner add_bench_command(CLI::App& app);
 Runner add_view_command(CLI::App& app);
+Runner add_ingest_command(CLI::App& app);
 
 }  // namespace sl::app

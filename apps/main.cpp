@@ -22,6 +22,7 @@ int main(int argc, char** argv) {
   add(sl::app::add_info_command);
   add(sl::app::add_bench_command);
   add(sl::app::add_view_command);
+  add(sl::app::add_ingest_command);
 
   try {
     app.parse(argc, argv);

@@ -6,7 +6,11 @@
 
 #include "cache/generate.h"
 #include "cache/nrrd.h"
+#include "cache/zarr_meta.h"
+#include "cache/zarr_source.h"
 #include "core/error.h"
+
+#include <unistd.h>
 
 namespace sl::app {
 
@@ -35,13 +39,29 @@ GeneratedVolume load_builtin(const std::string& spec) {
   return generate_volume(m[1], dims, seed);
 }
 
+// A volume file: NRRD, or level 0 of an OME-Zarr store read whole (in core). A store bigger than half
+// of this machine's memory is refused with the hint to stream it (out of core) instead.
+Volume read_volume_file(const std::string& path, bool store_labels = false) {
+  if (!zarr::is_zarr_path(path)) return read_nrrd(path);
+  const zarr::StoreInfo info = zarr::open_store(path);
+  const VolumeDesc& d = store_labels && info.labels ? info.labels->desc : info.image.desc;
+  const double phys = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
+  if (phys > 0.0 && double(d.byte_size()) > 0.5 * phys) {
+    throw InputError(path, "level 0 holds " + std::to_string(d.byte_size() >> 20) +
+                               " MiB, more than half of this machine's memory; render it out of core with --cache-mb");
+  }
+  return read_zarr_volume(path, store_labels);
+}
+
 }  // namespace
 
 void add_scene_options(CLI::App& c, SceneOptions& s, bool camera) {
   c.add_option("--volume", s.volume,
-               "Volume: NRRD (.nrrd/.nhdr), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; "
-               "default builtin:neurites (256^3)");
-  c.add_option("--labels", s.labels, "Label volume (NRRD, integer type, same dims)");
+               "Volume: NRRD (.nrrd/.nhdr), OME-Zarr store (.zarr; out of core with --cache-mb), "
+               "builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
+  c.add_option("--labels", s.labels,
+               "Label volume (NRRD or .zarr store, integer type, same dims); a .zarr volume's own labels/ group is "
+               "used when this is not given");
   c.add_option("--tf", s.tf, "Transfer function JSON");
   if (camera) c.add_option("--camera", s.camera, "Camera JSON");
   c.add_option("--enable", s.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
@@ -67,6 +87,31 @@ RenderSettings make_render_settings(const std::string& size, const std::string& 
 
 SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
   SourceScene s;
+  if (out_of_core && zarr::is_zarr_path(o.volume)) {
+    // An OME-Zarr store streams chunk by chunk through the brick loader (DESIGN.md §4).
+    if (!o.labels.empty() && !zarr::is_zarr_path(o.labels)) {
+      throw InputError("--labels", "a .zarr volume rendered out of core takes its labels from a .zarr store");
+    }
+    auto src = std::make_shared<ZarrVolumeSource>(o.volume, o.labels);
+    s.source = src;
+    s.name = o.volume;
+    s.desc = src->desc();
+    s.label_count = src->max_label();
+    if (!o.tf.empty()) {
+      s.tf = load_transfer_function(o.tf);
+    } else if (s.desc.type == VoxelType::U8) {
+      s.tf = default_transfer_function(0.0f, 255.0f);
+    } else {
+      const vec2 r = src->value_range_estimate();
+      s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+    }
+    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
+    if (!o.enable.empty()) {
+      if (!src->has_labels()) throw InputError("--enable", "needs a label volume (the store's labels/ or --labels)");
+      s.enabled = parse_enable_spec(o.enable, s.label_count);
+    }
+    return s;
+  }
   if (is_procedural_spec(o.volume)) {
     if (!o.labels.empty()) throw InputError("--labels", "a procedural volume has its own labels");
     if (!o.enable.empty()) {
@@ -102,11 +147,14 @@ LoadedScene load_scene(const SceneOptions& o) {
     s.label_count = g.label_count;
     s.name = spec;
   } else {
-    s.volume = read_nrrd(o.volume);
+    s.volume = read_volume_file(o.volume);
     s.name = o.volume;
+    if (o.labels.empty() && zarr::is_zarr_path(o.volume) && zarr::open_store(o.volume).labels) {
+      s.labels = read_volume_file(o.volume, true);
+    }
   }
   if (!o.labels.empty()) {
-    s.labels = read_nrrd(o.labels);
+    s.labels = read_volume_file(o.labels);
     if (s.labels.dims() != s.volume.dims()) {
       throw InputError(o.labels, "label volume dims differ from the intensity volume's");
     }

@@ -1,0 +1,55 @@
+// Helpers for the OME-Zarr tests: the python3-zarr peer (tests/data_tools/zarr_tool.py, run with
+// Debian's /usr/bin/python3, not whatever python3 is first on PATH) and raw expected files.
+#pragma once
+
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+namespace sl::test {
+
+inline const char* kPeerPython = "/usr/bin/python3";
+
+// True when /usr/bin/python3 can import the named modules ("zarr, numcodecs").
+inline bool python_has(const std::string& modules) {
+  const std::string cmd = std::string(kPeerPython) + " -c 'import " + modules + "' >/dev/null 2>&1";
+  return std::system(cmd.c_str()) == 0;
+}
+
+// Runs zarr_tool.py with `args`; returns its exit code and fills `out` with stdout + stderr.
+inline int run_peer(const std::string& args, std::string* out = nullptr) {
+  const std::string cmd = std::string(kPeerPython) + " " + SL_SOURCE_DIR + "/tests/data_tools/zarr_tool.py " + args +
+                          " 2>&1";
+  std::string text;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return -1;
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
+  const int status = pclose(p);
+  if (out) *out = text;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+inline std::vector<std::byte> read_bytes(const std::filesystem::path& p) {
+  std::ifstream f(p, std::ios::binary);
+  std::vector<char> c((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  std::vector<std::byte> b(c.size());
+  for (std::size_t i = 0; i < c.size(); ++i) b[i] = std::byte(c[i]);
+  return b;
+}
+
+}  // namespace sl::test
+
+// Skips (never silently passes) when the python3-zarr peer is missing.
+#define SL_REQUIRE_PYTHON(modules)                                                                   \
+  do {                                                                                               \
+    if (!::sl::test::python_has(modules)) {                                                          \
+      GTEST_SKIP() << "/usr/bin/python3 cannot import " << (modules)                                 \
+                   << " (install python3-zarr python3-numcodecs python3-tifffile python3-nibabel)"; \
+    }                                                                                                \
+  } while (0)
