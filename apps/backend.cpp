@@ -3,8 +3,13 @@
 #include <cstdio>
 
 #include "core/error.h"
+#include "core/segment_list_builder.h"
 #ifdef SL_HAVE_CUDA
 #include "cuda/cuda_renderer.h"
+#endif
+#ifdef SL_HAVE_GL
+#include "gl/gl_context.h"
+#include "gl/gl_segment_list_builder.h"
 #endif
 
 namespace sl::app {
@@ -32,11 +37,59 @@ Backend choose_backend(const std::string& name, std::string* notice) {
 #endif
 }
 
-Frame FrameRenderer::render(const Scene& scene, const RenderSettings& settings) {
-#ifdef SL_HAVE_CUDA
-  if (backend_ == Backend::Cuda) return cuda::render(scene, settings);
+ListSource parse_list_source(const std::string& name) {
+  if (name == "cpu") return ListSource::Cpu;
+  if (name != "gl") throw InputError("--lists", "unknown list builder '" + name + "' (expected cpu or gl)");
+#ifndef SL_HAVE_GL
+  throw InputError("--lists", "gl: this build has no OpenGL backend (libepoxy/GLFW were not found)");
 #endif
-  return cpu_.render(scene, settings);
+  return ListSource::Gl;
+}
+
+CpuRenderer::ListBuilder make_gl_list_builder() {
+#ifdef SL_HAVE_GL
+  struct Gl {
+    std::unique_ptr<GlContext> context;
+    std::unique_ptr<GlSegmentListBuilder> builder;
+  };
+  auto gl = std::make_shared<Gl>();
+  try {
+    gl->context = GlContext::create_headless();
+  } catch (const GlError& e) {
+    throw InputError("--lists", std::string("gl: no OpenGL context: ") + e.what());
+  }
+  gl->context->make_current();
+  gl->builder = std::make_unique<GlSegmentListBuilder>(*gl->context);
+  return [gl](const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order, const RayGenerator& gen,
+              SegmentListBuffer& out, float eps) {
+    gl->context->make_current();
+    return gl->builder->build_segment_lists(geometry, order, gen, out, eps).lists;
+  };
+#else
+  throw InputError("--lists", "gl: this build has no OpenGL backend");
+#endif
+}
+
+std::unique_ptr<CastDevice> make_cast_device(Backend b) {
+#ifdef SL_HAVE_CUDA
+  if (b == Backend::Cuda) return cuda::make_cast_device();
+#else
+  (void)b;
+#endif
+  return nullptr;
+}
+
+FrameRenderer::FrameRenderer(Backend b, ListSource lists) : backend_(b) {
+#ifdef SL_HAVE_CUDA
+  if (b == Backend::Cuda) cpu_.set_caster(cuda::make_frame_caster());
+#endif
+  if (lists == ListSource::Gl) cpu_.set_list_builder(make_gl_list_builder());
+}
+
+Frame FrameRenderer::render(const Scene& scene, const RenderSettings& settings) {
+  Frame f = cpu_.render(scene, settings);
+  if (backend_ == Backend::Cuda) f.stats.backend = "cuda";
+  return f;
 }
 
 }  // namespace sl::app

@@ -1,9 +1,12 @@
-// Choosing the rendering backend (`--backend auto|cpu|cuda`) and rendering a frame with it.
+// Choosing the rendering backend (`--backend auto|cpu|cuda`) and the segment-list builder
+// (`--lists cpu|gl`), and rendering a frame with them.
 #pragma once
 
 #include <memory>
 #include <string>
 
+#include "cache/cast_device.h"
+#include "cache/out_of_core.h"
 #include "core/cpu_renderer.h"
 
 namespace sl::app {
@@ -16,16 +19,29 @@ enum class Backend { Cpu, Cuda };
 // other check has passed, so bad input stays one line).
 Backend choose_backend(const std::string& name, std::string* notice = nullptr);
 
+// Who builds the SparseLeap segment lists: the CPU tile builder, or OpenGL's rasterizer (headless
+// EGL, GlSegmentListBuilder) with the lists read back for the caster. InputError for anything else,
+// or for gl in a build without the GL backend.
+enum class ListSource { Cpu, Gl };
+ListSource parse_list_source(const std::string& name);
+
+// A CpuRenderer::ListBuilder running on a headless GL context made here (InputError naming --lists
+// when no context can be made). The function owns the context and the builder.
+CpuRenderer::ListBuilder make_gl_list_builder();
+
+// The out-of-core cast device of a backend: the CUDA device, or null (the CPU caster).
+std::unique_ptr<CastDevice> make_cast_device(Backend b);
+
 class FrameRenderer {
  public:
-  explicit FrameRenderer(Backend b) : backend_(b) {}
+  explicit FrameRenderer(Backend b, ListSource lists = ListSource::Cpu);
   Frame render(const Scene& scene, const RenderSettings& settings);
   Backend backend() const { return backend_; }
   void invalidate_lists() { cpu_.invalidate_lists(); }
 
  private:
   Backend backend_;
-  CpuRenderer cpu_;
+  CpuRenderer cpu_;  // prepares the skipping structures for every backend; casts for the CPU
 };
 
 inline Frame render_frame(Backend b, const Scene& scene, const RenderSettings& s) {

@@ -35,6 +35,7 @@ struct BenchOptions {
   std::string size = "512x512";
   std::string mode = "dvr";
   std::string backend = "cpu";
+  std::string lists = "cpu";
   std::string csv, json;
   float step = 0.5f;
   float iso = NAN;
@@ -133,7 +134,12 @@ int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
   os.cache_mb = o.cache_mb > 0 ? o.cache_mb : 1024;
   os.brick = o.brick;
   os.lod_bias = o.lod_bias;
-  OutOfCoreRenderer renderer(source, os, rs.block);
+  const ListSource lists = parse_list_source(o.lists);
+  std::string notice;
+  const Backend backend = choose_backend(o.backend, &notice);
+  OutOfCoreRenderer renderer(source, os, rs.block, make_cast_device(backend));
+  if (lists == ListSource::Gl) renderer.set_list_builder(make_gl_list_builder());
+  if (!notice.empty()) std::fputs(notice.c_str(), stderr);
   std::printf("bench (out of core): %s, %dx%d, %d views, cache %zu MB, brick %d\n", name.c_str(), rs.width,
               rs.height, path.frames, os.cache_mb, os.brick);
   std::printf("%5s %9s %12s %10s %11s %10s %12s %11s\n", "view", "frames", "converged ms", "loads", "resident MB",
@@ -214,6 +220,7 @@ int run_bench(const BenchOptions& o) {
   scene.enabled = ls.enabled ? &*ls.enabled : nullptr;
   scene.camera = path.at(0);
   validate(scene, rs);
+  const ListSource lists = parse_list_source(o.lists);
   const Backend backend = choose_backend(o.backend);
 
   const bool tty = ::isatty(2);
@@ -223,7 +230,7 @@ int run_bench(const BenchOptions& o) {
   std::vector<std::vector<FrameRecord>> records(methods.size());
   for (std::size_t mi = 0; mi < methods.size(); ++mi) {
     rs.method = methods[mi];
-    FrameRenderer renderer(backend);
+    FrameRenderer renderer(backend, lists);
     scene.camera = path.at(0);
     scene.tf = &ls.tf;
     for (int w = 0; w < o.warmup; ++w) renderer.render(scene, rs);
@@ -316,6 +323,7 @@ Runner add_bench_command(CLI::App& app) {
   c->add_flag("--ert", o->ert, "Early ray termination");
   c->add_option("--warmup", o->warmup, "Unrecorded frames before each method")->capture_default_str();
   c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
+  c->add_option("--lists", o->lists, "Segment-list builder: cpu or gl (OpenGL, headless EGL)")->capture_default_str();
   c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
   c->add_option("--csv", o->csv, "Per-frame CSV (a row per method and frame)");
   c->add_option("--cache-mb", o->cache_mb, "Out of core with this cache budget (sparseleap only; default for procedural 1024)");

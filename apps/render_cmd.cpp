@@ -28,6 +28,7 @@ struct RenderOptions {
   std::string mode = "dvr";
   std::string method = "sparseleap";
   std::string backend = "auto";
+  std::string lists = "cpu";
   std::string out = "sparseleap";
   std::string stats_json;
   std::string view = "image";
@@ -61,7 +62,7 @@ void write_text_file(const std::string& path, const std::string& text) {
 // Out of core: the volume is read through the page table and brick cache, bricks stream in over
 // frames; the last frame is written.
 int run_out_of_core(const RenderOptions& o, RenderSettings rs) {
-  if (o.backend == "cuda") throw InputError("--backend", "cuda: out-of-core rendering runs on the CPU backend so far");
+  const ListSource lists = parse_list_source(o.lists);
   SourceScene ss = load_source_scene(o.scene, true);
   const std::shared_ptr<const VolumeSource>& source = ss.source;
   const TransferFunction& tf = ss.tf;
@@ -82,7 +83,11 @@ int run_out_of_core(const RenderOptions& o, RenderSettings rs) {
   os.lod_bias = o.lod_bias;
   os.retire_frames = o.retire_frames;
   if (!(o.lod_bias > 0.0f)) throw InputError("--lod-bias", "must be positive");
-  OutOfCoreRenderer renderer(source, os, rs.block);
+  std::string notice;  // printed once the renderer accepted the sizes: bad input stays one line
+  const Backend backend = choose_backend(o.backend, &notice);
+  OutOfCoreRenderer renderer(source, os, rs.block, make_cast_device(backend));
+  if (lists == ListSource::Gl) renderer.set_list_builder(make_gl_list_builder());
+  if (!notice.empty()) std::fputs(notice.c_str(), stderr);
   OutOfCoreScene scene{&tf, enabled ? &*enabled : nullptr, camera};
   const bool tty = ::isatty(2);
   Frame frame = render_frames(renderer, scene, rs, o.frames, [&](const Frame& f) {
@@ -131,8 +136,9 @@ int run_render(const RenderOptions& o) {
   scene.camera = ls.camera;
 
   validate(scene, rs);
+  const ListSource lists = parse_list_source(o.lists);
   const Backend backend = choose_backend(o.backend);  // after all checks: bad input is the only line
-  FrameRenderer renderer(backend);
+  FrameRenderer renderer(backend, lists);
   Frame frame;
   for (int f = 0; f < o.frames; ++f) frame = renderer.render(scene, rs);
   write_png(o.out + ".png", frame.image);
@@ -158,6 +164,8 @@ Runner add_render_command(CLI::App& app) {
   c->add_option("--view", o->view, "image or depth-complexity")->capture_default_str();
   c->add_flag("--boxes", o->boxes, "Overlay the occupancy geometry (EMPTY red, NON_EMPTY green, UNKNOWN grey)");
   c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
+  c->add_option("--lists", o->lists, "Segment-list builder: cpu, or gl (OpenGL rasterizer, headless EGL)")
+      ->capture_default_str();
   c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
   c->add_option("--out", o->out, "Output prefix")->capture_default_str();
   c->add_option("--frames", o->frames, "Frames of the same view (out of core: the cache fills and converges)")

@@ -5,8 +5,6 @@
 #include <cstring>
 #include <functional>
 
-#include "cache/virtual_sampler.h"
-#include "core/cast_frame.h"
 #include "core/culling.h"
 #include "core/error.h"
 #include "core/occupancy_geometry.h"
@@ -42,7 +40,7 @@ int log2_exact(int v) {
 }  // namespace
 
 OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source, const OutOfCoreSettings& settings,
-                                     int block)
+                                     int block, std::unique_ptr<CastDevice> device)
     : source_(std::move(source)),
       settings_(settings),
       layout_(BrickLayout::make(source_->desc(), settings.brick, source_->name())),
@@ -53,13 +51,54 @@ OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source,
              settings.cache_mb),
       misses_(1u << 16),
       loader_(source_, layout_, settings.loader_threads),
-      tree_(make_block_grid(source_->desc().dims, source_->desc().spacing, block), OccupancyClass::Unknown) {
+      tree_(make_block_grid(source_->desc().dims, source_->desc().spacing, block), OccupancyClass::Unknown),
+      device_(device ? std::move(device) : std::make_unique<CpuCastDevice>()) {
   validate_block_size(block);
   if (block > settings.brick) throw InputError("--block", "the culling block must not exceed the brick size (--brick)");
   brick_depth_offset_ = log2_exact(settings.brick / block);
   if (settings.lod >= layout_.levels) {
     throw InputError("--lod", "level " + std::to_string(settings.lod) + " does not exist (the volume has " +
                                   std::to_string(layout_.levels) + " levels)");
+  }
+  device_memory_ = !device_->shares_host_memory();
+  DeviceConfig dc;
+  dc.layout = layout_;
+  dc.voxel_type = source_->desc().type;
+  dc.has_labels = source_->has_labels();
+  dc.label_type = source_->has_labels() ? source_->label_type() : VoxelType::U32;
+  dc.slot_count = cache_.slot_count();
+  dc.miss_capacity = misses_.capacity();
+  dc.page_table_geometry = page_table_.view();
+  dc.page_table_geometry.directory = nullptr;
+  dc.page_table_geometry.pool = nullptr;
+  for (int l = 0; l < layout_.levels; ++l) {
+    const PageTableLevel& L = dc.page_table_geometry.level[l];
+    dc.directory_words = std::max<std::size_t>(
+        dc.directory_words, std::size_t(L.directory_offset) + std::size_t(L.pages.x) * L.pages.y * L.pages.z);
+  }
+  device_->configure(dc);
+}
+
+void OutOfCoreRenderer::map(BrickId id, PageEntry e) {
+  if (!device_memory_) {
+    page_table_.set(id, e);
+    return;
+  }
+  // The pool word is identified before the change too: clearing a page's last entry releases it.
+  const PageTableView before = page_table_.view();
+  const std::uint32_t di = before.directory_index(id);
+  const std::uint32_t dir_before = before.directory[di];
+  page_table_.set(id, e);
+  const PageTableView after = page_table_.view();
+  const std::uint32_t dir_after = after.directory[di];
+  if (dir_after != dir_before) {
+    dirty_.dir_index.push_back(di);
+    dirty_.dir_value.push_back(0);  // current value filled in at sync
+  }
+  const std::uint32_t dir = dir_after ? dir_after : dir_before;
+  if (dir) {
+    dirty_.pool_index.push_back(PageTableView::pool_index(dir - 1, id));
+    dirty_.pool_value.push_back(0);
   }
 }
 
@@ -170,7 +209,7 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
     std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
     failures_reported_.push_back(f.reason);
     metadata_pending_.erase(f.id.bits);
-    page_table_.set(f.id, PageEntry::empty());
+    map(f.id, PageEntry::empty());
     // Its region's occupancy can never be known: call it NON_EMPTY (conservative; the data read as
     // missing), so rays stop reporting it and the view can converge.
     const int per = layout_.brick_size / block_;
@@ -187,19 +226,39 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
     if (metadata_pending_.erase(b.id.bits)) compute_metadata(b, cull);
     if (!page_table_.get(b.id).is_resident()) {
       if (auto a = cache_.allocate(b.id, frame_)) {
-        if (a->evicted.valid()) page_table_.clear(a->evicted);
+        if (a->evicted.valid()) map(a->evicted, PageEntry::unmapped());
+        if (device_memory_) {
+          // The device copies the brick (asynchronously); the host slot stays untouched (and, being
+          // allocated for overwrite, uncommitted): the host only does the bookkeeping.
+          BrickUpload u;
+          u.slot = a->slot;
+          u.id = b.id;
+          u.voxels = b.intensity;
+          if (cache_.has_labels() && !b.labels.empty()) u.labels = b.labels;
+          uploads_.push_back(u);
+          map(b.id, PageEntry::resident(a->slot));
+          ++loads_this_frame_;
+          staged_.push_back(std::move(b));
+          continue;
+        }
         auto vox = cache_.slot_voxels(a->slot);
         std::memcpy(vox.data(), b.intensity.data(), std::min(vox.size(), b.intensity.size()));
         if (cache_.has_labels() && !b.labels.empty()) {
           auto lab = cache_.slot_labels(a->slot);
           std::memcpy(lab.data(), b.labels.data(), std::min(lab.size(), b.labels.size()));
         }
-        page_table_.set(b.id, PageEntry::resident(a->slot));
+        map(b.id, PageEntry::resident(a->slot));
         ++loads_this_frame_;
       }
       // else: every slot is in use this frame; the brick is missed again and reloaded later.
     }
     loader_.recycle(std::move(b));
+  }
+  if (device_memory_) {
+    device_->upload_bricks(uploads_);
+    uploads_.clear();
+    for (LoadedBrick& b : staged_) loader_.recycle(std::move(b));
+    staged_.clear();
   }
 }
 
@@ -241,7 +300,7 @@ void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
     const PageEntry e = page_table_.get(id);
     if (cls == OccupancyClass::Empty) {
       if (!e.is_resident() && e.state() != PageEntry::State::Empty) {
-        page_table_.set(id, PageEntry::empty());
+        map(id, PageEntry::empty());
         empty_entries_.push_back(id);
       }
     } else if (!e.is_resident()) {
@@ -266,7 +325,7 @@ void OutOfCoreRenderer::recull(const Cull& cull) {
   });
   for (const auto& [key, m] : entries) apply_metadata(key, *m, cull);
   for (const BrickId id : empty_entries_) {
-    if (page_table_.get(id).state() == PageEntry::State::Empty) page_table_.clear(id);
+    if (page_table_.get(id).state() == PageEntry::State::Empty) map(id, PageEntry::unmapped());
   }
   empty_entries_.clear();
 }
@@ -293,33 +352,6 @@ std::size_t OutOfCoreRenderer::metadata_blocks_in(const Box3& box) const {
   }
   return n;
 }
-
-namespace {
-
-template <class T, class L>
-void cast_virtual(const CastParams& p, VirtualSampler<T, L> sampler, const RayGenerator& gen, const Box3& vbox,
-                  const SkipInputs& skip, Frame& frame) {
-  const RayCaster<VirtualSampler<T, L>> caster{p, sampler};
-  cast_frame(caster, gen, vbox, skip, frame);
-}
-
-template <class T>
-void cast_labels_typed(VoxelType lt, bool has_labels, const CastParams& p, const BrickLayout* layout,
-                       const PageTableView& pt, const BrickCacheView& cv, const MissBufferView& mv, std::uint32_t frame,
-                       const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip, Frame& f) {
-  auto make = [&](auto tag) {
-    using L = decltype(tag);
-    VirtualSampler<T, L> s{layout, pt, cv, mv, frame, has_labels};
-    cast_virtual<T, L>(p, s, gen, vbox, skip, f);
-  };
-  switch (has_labels ? lt : VoxelType::U8) {
-    case VoxelType::U8: make(std::uint8_t{}); break;
-    case VoxelType::U16: make(std::uint16_t{}); break;
-    default: make(std::uint32_t{}); break;
-  }
-}
-
-}  // namespace
 
 Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSettings& s) {
   Timer total;
@@ -359,6 +391,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
 
   const std::uint64_t evictions_before = cache_.evictions();
   loads_this_frame_ = 0;
+  if (device_memory_) device_->begin_frame();  // last frame's uploads have landed
   upload(cull);
   resolve_misses(cull);
   tree_.propagate();
@@ -386,7 +419,9 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
     st.time_ms.order = t.ms();
     t = Timer();
     lists.reset(s.width, s.height, CpuRenderer::kListCapacity);
-    const SegmentListStats ls = build_segment_lists(geometry, order, gen, lists, s.gap_eps * s.step * d.min_spacing());
+    const float eps = s.gap_eps * s.step * d.min_spacing();
+    const SegmentListStats ls =
+        list_builder_ ? list_builder_(geometry, order, gen, lists, eps) : build_segment_lists(geometry, order, gen, lists, eps);
     // (the short-gap threshold stays in level-0 steps: conservative for any coarser grid)
     st.time_ms.lists = t.ms();
     st.events = ls.events;
@@ -425,27 +460,14 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   p.lod = lod;
 
   misses_.clear();
-  const PageTableView ptv = page_table_.view();
-  const BrickCacheView cv = cache_.view();
-  const Box3 vbox{vec3(0.0f), d.extent()};
-  switch (d.type) {
-    case VoxelType::U8:
-      cast_labels_typed<std::uint8_t>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv,
-                                      misses_.view(), frame_, gen, vbox, skip, frame);
-      break;
-    case VoxelType::U16:
-      cast_labels_typed<std::uint16_t>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv,
-                                       misses_.view(), frame_, gen, vbox, skip, frame);
-      break;
-    case VoxelType::U32:
-      cast_labels_typed<std::uint32_t>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv,
-                                       misses_.view(), frame_, gen, vbox, skip, frame);
-      break;
-    case VoxelType::F32:
-      cast_labels_typed<float>(source_->label_type(), source_->has_labels(), p, &layout_, ptv, cv, misses_.view(),
-                               frame_, gen, vbox, skip, frame);
-      break;
-  }
+  CastRequest request;
+  request.params = p;
+  request.gen = gen;
+  request.vbox = Box3{vec3(0.0f), d.extent()};
+  request.skip = skip;
+  request.frame = frame_;
+  request.host = VirtualMemoryView{&layout_, page_table_.view(), cache_.view(), misses_.view(), source_->has_labels()};
+  cast(request, frame);
   touch_used_bricks();
 
   CacheStats& c = st.cache;
@@ -474,6 +496,38 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   if (s.boxes_overlay && s.method == SkipMethod::SparseLeap) draw_boxes(frame.image, geometry.boxes, gen);
   st.time_ms.total = total.ms();
   return frame;
+}
+
+// Casts on the device. With device memory: first the page-table words changed this frame (each once,
+// with its current value), then the cast; the misses and slot usage it copies back go into the host's
+// miss buffer and usage stamps, where resolve_misses / touch_used_bricks / LRU read them exactly as
+// after a CPU cast.
+void OutOfCoreRenderer::cast(const CastRequest& r, Frame& frame) {
+  CastFeedback fb;
+  if (!device_memory_) {
+    device_->cast(r, frame, fb);
+    return;
+  }
+  const PageTableView host = page_table_.view();
+  std::sort(dirty_.dir_index.begin(), dirty_.dir_index.end());
+  dirty_.dir_index.erase(std::unique(dirty_.dir_index.begin(), dirty_.dir_index.end()), dirty_.dir_index.end());
+  dirty_.dir_value.resize(dirty_.dir_index.size());
+  for (std::size_t k = 0; k < dirty_.dir_index.size(); ++k) dirty_.dir_value[k] = host.directory[dirty_.dir_index[k]];
+  std::sort(dirty_.pool_index.begin(), dirty_.pool_index.end());
+  dirty_.pool_index.erase(std::unique(dirty_.pool_index.begin(), dirty_.pool_index.end()), dirty_.pool_index.end());
+  dirty_.pool_value.resize(dirty_.pool_index.size());
+  for (std::size_t k = 0; k < dirty_.pool_index.size(); ++k) {
+    dirty_.pool_value[k] = host.pool[std::size_t(dirty_.pool_index[k])];
+  }
+  device_->sync_page_table(dirty_);
+  dirty_.clear();
+  device_->cast(r, frame, fb);
+  const MissBufferView mv = misses_.view();
+  for (const BrickId id : fb.misses) mv.insert(id);
+  const BrickCacheView cv = cache_.view();
+  for (const std::uint32_t slot : fb.used_slots) {
+    if (slot < cache_.slot_count() && cache_.brick_in(slot).valid()) cv.touch(slot, r.frame);
+  }
 }
 
 Frame render_frames(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSettings& s, int frames,

@@ -12,6 +12,7 @@
 #include "cache/brick.h"
 #include "cache/brick_cache.h"
 #include "cache/brick_loader.h"
+#include "cache/cast_device.h"
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
 #include "cache/volume_source.h"
@@ -40,7 +41,9 @@ struct OutOfCoreScene {
 class OutOfCoreRenderer {
  public:
   // Throws InputError for a cache too small for one brick per level, bad brick/block sizes.
-  OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source, const OutOfCoreSettings& settings, int block);
+  // `device` casts the frames (cast_device.h); null: the CPU caster on the host's own tables.
+  OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source, const OutOfCoreSettings& settings, int block,
+                    std::unique_ptr<CastDevice> device = nullptr);
   ~OutOfCoreRenderer();
 
   // One frame: make finished loads resident, resolve last frame's misses, grow or retire the tree,
@@ -57,6 +60,16 @@ class OutOfCoreRenderer {
   std::size_t resident_bricks() const { return cache_.resident_count(); }
   std::size_t failed_bricks() const { return loader_.failed_count(); }
   void wait_for_loads() { loader_.wait_idle(); }
+  const CastDevice& device() const { return *device_; }
+  // Builds the SparseLeap lists instead of build_segment_lists (e.g. the GL builder, `--lists gl`).
+  void set_list_builder(CpuRenderer::ListBuilder builder) { list_builder_ = std::move(builder); }
+  // The host's page-table entry of a brick (tests compare a device's mirror with it).
+  PageEntry page_entry(BrickId id) const { return page_table_.get(id); }
+  // Slot of the brick cache holding `id`, if resident; the brick in a slot; a slot's usage stamp.
+  std::uint32_t slot_count() const { return cache_.slot_count(); }
+  BrickId brick_in_slot(std::uint32_t slot) const { return cache_.brick_in(slot); }
+  std::uint32_t slot_last_used(std::uint32_t slot) const { return cache_.last_used(slot); }
+  std::uint64_t evictions() const { return cache_.evictions(); }
 
  private:
   struct Cull;
@@ -68,6 +81,9 @@ class OutOfCoreRenderer {
   std::uint32_t node_for_brick(BrickId id) const;
   void recull(const Cull& cull);
   void touch_used_bricks();
+  // Every page-table change goes through here, so a device mirror receives only the changed words.
+  void map(BrickId id, PageEntry e);
+  void cast(const CastRequest& request, Frame& frame);
 
   std::shared_ptr<const VolumeSource> source_;
   OutOfCoreSettings settings_;
@@ -89,6 +105,12 @@ class OutOfCoreRenderer {
   int converged_at_ = -1;
   std::uint64_t loads_this_frame_ = 0;
   std::vector<std::string> failures_reported_;
+  std::unique_ptr<CastDevice> device_;
+  CpuRenderer::ListBuilder list_builder_;
+  bool device_memory_ = false;  // the device keeps its own copies (uploads, page-table sync, feedback)
+  PageTableUpdate dirty_;       // page-table words changed since the last sync
+  std::vector<BrickUpload> uploads_;  // this frame's new resident bricks (device memory)
+  std::vector<LoadedBrick> staged_;   // their buffers, recycled once uploaded
 };
 
 // Out-of-core rendering of one view for `frames` frames (the cache fills, the image converges);

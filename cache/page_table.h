@@ -84,17 +84,26 @@ struct PageTableView {
   SL_HOST_DEVICE PageEntry lookup(BrickId id) const {
     const int l = id.level();
     if (l >= levels) return PageEntry::unmapped();
-    const ivec3 c = id.coord();
-    const ivec3 p = c / kPageBricks;
+    const ivec3 p = id.coord() / kPageBricks;
     const PageTableLevel& L = level[l];
     if (p.x >= L.pages.x || p.y >= L.pages.y || p.z >= L.pages.z) return PageEntry::unmapped();
-    const std::uint32_t dir =
-        directory[L.directory_offset + (std::uint32_t(p.z) * std::uint32_t(L.pages.y) + std::uint32_t(p.y)) *
-                                           std::uint32_t(L.pages.x) + std::uint32_t(p.x)];
+    const std::uint32_t dir = directory[directory_index(id)];
     if (dir == 0) return PageEntry::unmapped();
-    const ivec3 e = c - p * kPageBricks;
+    return PageEntry{pool[pool_index(dir - 1, id)]};
+  }
+
+  // Word indices of a brick inside the level's page grid (a device mirror copies words by index).
+  SL_HOST_DEVICE std::uint32_t directory_index(BrickId id) const {
+    const ivec3 p = id.coord() / kPageBricks;
+    const PageTableLevel& L = level[id.level()];
+    return L.directory_offset + (std::uint32_t(p.z) * std::uint32_t(L.pages.y) + std::uint32_t(p.y)) *
+                                    std::uint32_t(L.pages.x) + std::uint32_t(p.x);
+  }
+  SL_HOST_DEVICE static std::uint64_t pool_index(std::uint32_t page, BrickId id) {
+    const ivec3 c = id.coord();
+    const ivec3 e = c - (c / kPageBricks) * kPageBricks;
     const std::uint32_t in_page = (std::uint32_t(e.z) * kPageBricks + std::uint32_t(e.y)) * kPageBricks + std::uint32_t(e.x);
-    return PageEntry{pool[std::uint64_t(dir - 1) * kPageEntries + in_page]};
+    return std::uint64_t(page) * kPageEntries + in_page;
   }
 };
 

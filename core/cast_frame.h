@@ -1,12 +1,14 @@
 // The per-frame ray-casting loop shared by the in-core (dense) and out-of-core (virtual) CPU paths:
 // screen tiles in parallel, each pixel walking its method's spans on the global sample grid (Alg. 6
-// for segment lists, kd-restart for the octree), and the frame's counters.
+// for segment lists, kd-restart for the octree; the per-pixel walk is core/cast_pixel.h, which the
+// CUDA kernels share), and the frame's counters.
 #pragma once
 
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
 
+#include "core/cast_pixel.h"
 #include "core/cpu_renderer.h"
 #include "core/octree_skip.h"
 #include "core/parallel.h"
@@ -14,13 +16,6 @@
 #include "core/segment_list.h"
 
 namespace sl {
-
-// What the per-pixel loop needs to know about the skipping structures of this frame.
-struct SkipInputs {
-  SkipMethod method = SkipMethod::None;
-  SegmentListView lists;  // sparseleap, bbox
-  SkipOctreeView octree;  // octree
-};
 
 namespace detail {
 
@@ -41,48 +36,6 @@ void atomic_min(std::atomic<T>& a, T v) {
   T cur = a.load(std::memory_order_relaxed);
   while (v < cur && !a.compare_exchange_weak(cur, v, std::memory_order_relaxed)) {
   }
-}
-
-// One pixel: walks the method's spans on the global sample grid (Alg. 6 for segment lists; kd-restart
-// for the octree). Returns the depth complexity: segments of the list, or octree nodes visited.
-template <class Sampler>
-std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const SkipInputs& skip, std::size_t pixel,
-                         const Ray& ray, float t_entry, float t_exit, RayAccum& acc, std::uint32_t& misses) {
-  const int k_end = sample_index(t_exit, t_entry, caster.p.inv_dt);
-  switch (skip.method) {
-    case SkipMethod::None:
-      caster.march(ray, t_entry, 0, k_end, acc);
-      return 0;
-    case SkipMethod::Octree: {
-      std::uint32_t nodes = 0;
-      for (float t = t_entry; t < t_exit && !acc.done;) {
-        const KdRestartStep st = skip.octree.step(ray, t, t_exit);
-        nodes += st.nodes_visited;
-        if (st.cls != OccupancyClass::Empty) {
-          caster.march_span(ray, t_entry, sample_index(st.t0, t_entry, caster.p.inv_dt),
-                            sample_index(st.t1, t_entry, caster.p.inv_dt), k_end, acc);
-        }
-        t = st.t1;
-      }
-      return nodes;
-    }
-    case SkipMethod::BBox:
-    case SkipMethod::SparseLeap: {
-      const std::uint32_t n = skip.lists.count(pixel);
-      const RayEvent* ev = skip.lists.list(pixel);
-      const std::uint32_t segments = segment_count(ev, n);
-      for (std::uint32_t k = 0; k < segments && !acc.done; ++k) {
-        const RaySegment seg = list_segment(ev, n, k, t_exit);
-        if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
-        caster.march_span(ray, t_entry, sample_index(seg.t0, t_entry, caster.p.inv_dt),
-                          sample_index(seg.t1, t_entry, caster.p.inv_dt), k_end, acc,
-                          seg.cls == OccupancyClass::Unknown);
-        if (seg.cls == OccupancyClass::Unknown) ++misses;  // occupancy miss (resolved out of core)
-      }
-      return segments;
-    }
-  }
-  return 0;
 }
 
 }  // namespace detail

@@ -195,7 +195,8 @@ SkipInputs CpuRenderer::prepare_skipping(const Scene& scene, const RenderSetting
           st.time_ms.order = t.ms();
           t = Timer();
           S.lists.reset(s.width, s.height, kListCapacity);
-          S.list_stats = build_segment_lists(*S.geometry, order, gen, S.lists, eps);
+          S.list_stats = list_builder_ ? list_builder_(*S.geometry, order, gen, S.lists, eps)
+                                       : build_segment_lists(*S.geometry, order, gen, S.lists, eps);
           st.time_ms.lists = t.ms();
         } else {
           t = Timer();
@@ -225,6 +226,13 @@ SkipInputs CpuRenderer::prepare_skipping(const Scene& scene, const RenderSetting
 
 void CpuRenderer::invalidate_lists() { state_->lists_valid = false; }
 
+void CpuRenderer::set_list_builder(ListBuilder builder) {
+  list_builder_ = std::move(builder);
+  state_->lists_valid = false;
+}
+
+void CpuRenderer::set_caster(Caster caster) { caster_ = std::move(caster); }
+
 const OccupancyGeometry* CpuRenderer::geometry() const {
   return state_->geometry ? &*state_->geometry : nullptr;
 }
@@ -244,11 +252,15 @@ Frame CpuRenderer::render(const Scene& scene, const RenderSettings& s) {
   active_labels_ = scene.enabled ? scene.enabled : (s.mode == RenderMode::Labels ? &label_storage : nullptr);
   const SkipInputs skip = prepare_skipping(scene, s, p, frame.stats);
 
-  switch (scene.volume->type()) {
-    case VoxelType::U8: render_labels_typed<std::uint8_t>(scene, s, p, skip, frame); break;
-    case VoxelType::U16: render_labels_typed<std::uint16_t>(scene, s, p, skip, frame); break;
-    case VoxelType::U32: render_labels_typed<std::uint32_t>(scene, s, p, skip, frame); break;
-    case VoxelType::F32: render_labels_typed<float>(scene, s, p, skip, frame); break;
+  if (caster_) {
+    caster_(scene, s, p, skip, frame);
+  } else {
+    switch (scene.volume->type()) {
+      case VoxelType::U8: render_labels_typed<std::uint8_t>(scene, s, p, skip, frame); break;
+      case VoxelType::U16: render_labels_typed<std::uint16_t>(scene, s, p, skip, frame); break;
+      case VoxelType::U32: render_labels_typed<std::uint32_t>(scene, s, p, skip, frame); break;
+      case VoxelType::F32: render_labels_typed<float>(scene, s, p, skip, frame); break;
+    }
   }
   if (s.depth_complexity_view) {
     draw_depth_complexity(frame.image, float(frame.stats.depth_complexity_min),

@@ -1,7 +1,9 @@
 // The CPU backend: the reference renderer for every method and mode, parallel over screen tiles.
 #pragma once
 
+#include <functional>
 #include <memory>
+#include <span>
 
 #include "core/camera.h"
 #include "core/image.h"
@@ -50,6 +52,10 @@ CastParams make_cast_params(const Scene& scene, const RenderSettings& settings, 
 
 struct OccupancyGeometry;
 struct SkipInputs;
+struct SegmentListBuffer;
+struct SegmentListStats;
+struct VisibilityEntry;
+struct RayGenerator;
 
 class CpuRenderer {
  public:
@@ -69,12 +75,27 @@ class CpuRenderer {
   // The occupancy geometry of the last frame (null before a skipping method has run).
   const OccupancyGeometry* geometry() const;
 
+  // Hooks for the other backends; empty (the default) means the CPU's own.
+  // Builds SparseLeap segment lists with build_segment_lists's signature into `out` (keeping its
+  // size and capacity), e.g. GlSegmentListBuilder for `--lists gl`; lists equal to the CPU builder's
+  // give the same image (DESIGN.md §7, tests/gl/gl_lists_renderer_test.cpp).
+  using ListBuilder = std::function<SegmentListStats(const OccupancyGeometry&, std::span<const VisibilityEntry>,
+                                                     const RayGenerator&, SegmentListBuffer& out, float eps)>;
+  void set_list_builder(ListBuilder builder);
+  // Casts the frame (fills frame.image and the ray-casting stats, as cast_frame does) from the
+  // skipping structures this renderer prepared, e.g. the CUDA kernels.
+  using Caster = std::function<void(const Scene&, const RenderSettings&, const CastParams&, const SkipInputs&,
+                                    Frame&)>;
+  void set_caster(Caster caster);
+
  private:
   struct State;
   SkipInputs prepare_skipping(const Scene& scene, const RenderSettings& s, const CastParams& p, Stats& st);
 
   std::unique_ptr<State> state_;
   const LabelSet* active_labels_ = nullptr;  // enabled set of the frame being rendered
+  ListBuilder list_builder_;
+  Caster caster_;
 };
 
 }  // namespace sl

@@ -1,105 +1,141 @@
-// Thin CUDA layer: memory, launches, copies. The per-ray logic is core/raycast.h, the same code the
-// CPU backend runs and the CPU tests prove (DESIGN.md §1, STYLE.md #2).
+// Thin CUDA layer for in-core rendering: memory, launches, copies. The per-pixel logic is
+// core/cast_pixel.h over core/raycast.h — the same code the CPU backend runs and the CPU tests prove
+// (DESIGN.md §1, STYLE.md #2). The skipping structures (segment lists, octree) are the ones the CPU
+// renderer built for the frame, uploaded here.
 #include "cuda/cuda_renderer.h"
 
 #include <cuda_runtime.h>
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "core/error.h"
-#include "core/raycast.h"
 #include "core/stats.h"
+#include "cuda/cast_kernels.cuh"
+#include "cuda/device_samplers.cuh"
 
 namespace sl::cuda {
 namespace {
 
-void check(cudaError_t e, const char* what) {
-  if (e != cudaSuccess) throw std::runtime_error(std::string("CUDA ") + what + ": " + cudaGetErrorString(e));
+// Nodes reachable from the root (the view carries no size): children blocks are contiguous.
+std::size_t octree_node_count(const SkipOctreeView& v) {
+  if (!v.nodes) return 0;
+  std::size_t n = 1;
+  std::vector<std::uint32_t> stack{0};
+  while (!stack.empty()) {
+    const std::uint32_t i = stack.back();
+    stack.pop_back();
+    const std::uint32_t c = v.nodes[i].children;
+    if (c == SkipOctreeView::kNone) continue;
+    n = std::max<std::size_t>(n, std::size_t(c) + 8);
+    for (std::uint32_t k = 0; k < 8; ++k) stack.push_back(c + k);
+  }
+  return n;
 }
 
-// Device buffer owned by the host; frees in its destructor (errors there are only printed).
-template <class T>
-struct DeviceBuffer {
-  T* ptr = nullptr;
-  explicit DeviceBuffer(std::size_t n, const T* src = nullptr) {
-    check(cudaMalloc(&ptr, n * sizeof(T) + 1), "cudaMalloc");
-    if (src) check(cudaMemcpy(ptr, src, n * sizeof(T), cudaMemcpyHostToDevice), "cudaMemcpy");
+// True for device memory (e.g. GL buffers mapped by GlListInterop); plain host memory is not.
+bool on_device(const void* p) {
+  cudaPointerAttributes a{};
+  if (cudaPointerGetAttributes(&a, p) != cudaSuccess) {
+    cudaGetLastError();
+    return false;
   }
-  ~DeviceBuffer() { cudaFree(ptr); }
-  DeviceBuffer(const DeviceBuffer&) = delete;
-  DeviceBuffer& operator=(const DeviceBuffer&) = delete;
-};
-
-template <class VT, class LT>
-__global__ void cast_none_kernel(RayCaster<DenseSampler<VT, LT>> caster, RayGenerator gen, Box3 vbox, vec4* rgba,
-                                 float* samples) {
-  const int x = int(blockIdx.x * blockDim.x + threadIdx.x);
-  const int y = int(blockIdx.y * blockDim.y + threadIdx.y);
-  if (x >= gen.width || y >= gen.height) return;
-  const Ray ray = gen.ray(x, y);
-  const Interval iv = intersect(ray, vbox);
-  const float t_entry = iv.t0 > 0.0f ? iv.t0 : 0.0f;
-  RayAccum acc;
-  if (iv.t1 > t_entry) {
-    caster.march(ray, t_entry, 0, sample_index(iv.t1, t_entry, caster.p.inv_dt), acc);
-  }
-  const std::size_t i = std::size_t(y) * gen.width + x;
-  rgba[i] = caster.resolve(acc);
-  samples[i] = float(acc.samples);
+  return a.type == cudaMemoryTypeDevice || a.type == cudaMemoryTypeManaged;
 }
 
 template <class T>
-DenseGrid<T> device_grid(const Volume& v, DeviceBuffer<T>& buf) {
+DenseGrid<T> device_grid(const Volume& v, const std::byte* data) {
   DenseGrid<T> g;
-  g.data = buf.ptr;
+  g.data = reinterpret_cast<const T*>(data);
   g.dims = v.dims();
   g.inv_spacing = 1.0f / v.desc().spacing;
   return g;
 }
 
-template <class VT, class LT>
-void render_typed(const Scene& scene, const RenderSettings& s, CastParams p, Frame& frame) {
-  const Volume& vol = *scene.volume;
-  DeviceBuffer<VT> dvol(vol.desc().voxel_count(), vol.as<VT>());
-  const std::size_t nl = scene.labels ? scene.labels->desc().voxel_count() : 0;
-  DeviceBuffer<LT> dlab(nl, scene.labels ? scene.labels->as<LT>() : nullptr);
-  DeviceBuffer<vec4> dtf(std::size_t(p.tf.size), p.tf.table);
-  p.tf.table = dtf.ptr;
-  const std::size_t nbits = p.labels.bits ? (p.labels.size + 31) / 32 : 0;
-  DeviceBuffer<std::uint32_t> dbits(nbits, p.labels.bits);
-  if (p.labels.bits) p.labels.bits = dbits.ptr;
+class InCoreCaster {
+ public:
+  InCoreCaster() { check(cudaStreamCreate(&stream_), "cudaStreamCreate"); }
+  ~InCoreCaster() { check_noexcept(cudaStreamDestroy(stream_), "cudaStreamDestroy"); }
 
-  RayCaster<DenseSampler<VT, LT>> caster{p, {device_grid<VT>(vol, dvol), {}}};
-  if (scene.labels) caster.volume.labels = device_grid<LT>(*scene.labels, dlab);
-  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
-  const Box3 vbox{vec3(0.0f), vol.desc().extent()};
-  const std::size_t npix = std::size_t(s.width) * s.height;
-  DeviceBuffer<vec4> drgba(npix);
-  DeviceBuffer<float> dsamples(npix);
-
-  Timer t;
-  const dim3 block(16, 8);
-  const dim3 grid((s.width + block.x - 1) / block.x, (s.height + block.y - 1) / block.y);
-  cast_none_kernel<VT, LT><<<grid, block>>>(caster, gen, vbox, drgba.ptr, dsamples.ptr);
-  check(cudaGetLastError(), "kernel launch");
-  check(cudaDeviceSynchronize(), "kernel");
-  frame.stats.time_ms.raycast = t.ms();
-  check(cudaMemcpy(frame.image.rgba.data(), drgba.ptr, npix * sizeof(vec4), cudaMemcpyDeviceToHost), "copy");
-  auto& samples = frame.image.channel("samples");
-  check(cudaMemcpy(samples.data(), dsamples.ptr, npix * sizeof(float), cudaMemcpyDeviceToHost), "copy");
-  for (float f : samples) frame.stats.samples += std::uint64_t(f);
-}
-
-template <class VT>
-void render_labels(const Scene& scene, const RenderSettings& s, const CastParams& p, Frame& f) {
-  if (!scene.labels) return render_typed<VT, std::uint8_t>(scene, s, p, f);
-  switch (scene.labels->type()) {
-    case VoxelType::U8: return render_typed<VT, std::uint8_t>(scene, s, p, f);
-    case VoxelType::U16: return render_typed<VT, std::uint16_t>(scene, s, p, f);
-    default: return render_typed<VT, std::uint32_t>(scene, s, p, f);
+  void cast(const Scene& scene, const RenderSettings& s, CastParams p, SkipInputs skip, Frame& frame) {
+    Timer timer;
+    upload_volume(scene);
+    // Per-frame inputs: transfer-function table, enabled labels, the skipping structures.
+    tf_.upload(p.tf.table, std::size_t(p.tf.size), stream_);
+    p.tf.table = tf_.get();
+    if (p.labels.bits) {
+      bits_.upload(p.labels.bits, (p.labels.size + 31) / 32, stream_);
+      p.labels.bits = bits_.get();
+    }
+    if ((skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) && !on_device(skip.lists.events)) {
+      // (Lists mapped from GL by GlListInterop are already on the device: used in place.)
+      const SegmentListView& v = skip.lists;
+      const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
+      events_.upload(v.events, pixels * v.capacity, stream_);
+      counts_.upload(v.counts, pixels, stream_);
+      skip.lists.events = events_.get();
+      skip.lists.counts = counts_.get();
+    } else if (skip.method == SkipMethod::Octree) {
+      nodes_.upload(skip.octree.nodes, octree_node_count(skip.octree), stream_);
+      skip.octree.nodes = nodes_.get();
+    }
+    const bool iso = s.mode == RenderMode::Iso;
+    const FrameOutputs out = frame_.prepare(s.width, s.height, iso, stream_);
+    const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
+    const Box3 vbox{vec3(0.0f), scene.volume->desc().extent()};
+    switch (scene.volume->type()) {
+      case VoxelType::U8: launch<std::uint8_t>(scene, p, gen, vbox, skip, out); break;
+      case VoxelType::U16: launch<std::uint16_t>(scene, p, gen, vbox, skip, out); break;
+      case VoxelType::U32: launch<std::uint32_t>(scene, p, gen, vbox, skip, out); break;
+      case VoxelType::F32: launch<float>(scene, p, gen, vbox, skip, out); break;
+    }
+    frame_.finish(frame, skip.method, iso, stream_);
+    frame.stats.time_ms.raycast = timer.ms();
+    frame.stats.backend = "cuda";
   }
-}
+
+ private:
+  void upload_volume(const Scene& scene) {
+    if (scene.volume != volume_ || scene.volume->desc().byte_size() != volume_bytes_) {
+      volume_ = scene.volume;
+      volume_bytes_ = volume_->desc().byte_size();
+      vol_.upload(volume_->data(), volume_bytes_, stream_);
+    }
+    if (scene.labels != labels_ || (scene.labels && scene.labels->desc().byte_size() != labels_bytes_)) {
+      labels_ = scene.labels;
+      labels_bytes_ = labels_ ? labels_->desc().byte_size() : 0;
+      if (labels_) lab_.upload(labels_->data(), labels_bytes_, stream_);
+    }
+  }
+
+  template <class VT>
+  void launch(const Scene& scene, const CastParams& p, const RayGenerator& gen, const Box3& vbox,
+              const SkipInputs& skip, const FrameOutputs& out) {
+    DenseAnyLabelSampler<VT> sampler;
+    sampler.volume = device_grid<VT>(*scene.volume, vol_.get());
+    if (scene.labels) {
+      switch (scene.labels->type()) {
+        case VoxelType::U8: sampler.l8 = device_grid<std::uint8_t>(*scene.labels, lab_.get()); break;
+        case VoxelType::U16: sampler.l16 = device_grid<std::uint16_t>(*scene.labels, lab_.get()); break;
+        case VoxelType::U32: sampler.l32 = device_grid<std::uint32_t>(*scene.labels, lab_.get()); break;
+        case VoxelType::F32: throw InputError("--labels", "label volume must be of an integer type");
+      }
+    }
+    launch_cast(skip.method, RayCaster<DenseAnyLabelSampler<VT>>{p, sampler}, gen, vbox, skip, out, stream_);
+  }
+
+  cudaStream_t stream_ = nullptr;
+  const Volume* volume_ = nullptr;
+  const Volume* labels_ = nullptr;
+  std::uint64_t volume_bytes_ = 0, labels_bytes_ = 0;
+  DeviceBuffer<std::byte> vol_, lab_;
+  DeviceBuffer<vec4> tf_;
+  DeviceBuffer<std::uint32_t> bits_, counts_;
+  DeviceBuffer<RayEvent> events_;
+  DeviceBuffer<SkipOctreeNode> nodes_;
+  DeviceFrame frame_;
+};
 
 }  // namespace
 
@@ -122,30 +158,18 @@ DeviceInfo query_devices() {
   return info;
 }
 
+CpuRenderer::Caster make_frame_caster() {
+  auto state = std::make_shared<InCoreCaster>();
+  return [state](const Scene& scene, const RenderSettings& s, const CastParams& p, const SkipInputs& skip,
+                 Frame& frame) { state->cast(scene, s, p, skip, frame); };
+}
+
 Frame render(const Scene& scene, const RenderSettings& s) {
-  validate(scene, s);
-  if (s.method != SkipMethod::None) {
-    throw InputError("--method", std::string("the CUDA backend supports only method none so far, not ") +
-                                     to_string(s.method));
-  }
-  Timer total;
-  Frame frame;
-  frame.image = Image(s.width, s.height);
-  frame.stats.backend = "cuda";
-  frame.stats.width = s.width;
-  frame.stats.height = s.height;
-  frame.stats.method = to_string(s.method);
-  frame.stats.mode = to_string(s.mode);
-  LabelSet label_storage;
-  const CastParams p = make_cast_params(scene, s, label_storage);
-  switch (scene.volume->type()) {
-    case VoxelType::U8: render_labels<std::uint8_t>(scene, s, p, frame); break;
-    case VoxelType::U16: render_labels<std::uint16_t>(scene, s, p, frame); break;
-    case VoxelType::U32: render_labels<std::uint32_t>(scene, s, p, frame); break;
-    case VoxelType::F32: render_labels<float>(scene, s, p, frame); break;
-  }
-  frame.stats.time_ms.total = total.ms();
-  return frame;
+  CpuRenderer r;
+  r.set_caster(make_frame_caster());
+  Frame f = r.render(scene, s);
+  f.stats.backend = "cuda";
+  return f;
 }
 
 }  // namespace sl::cuda

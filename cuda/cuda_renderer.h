@@ -1,8 +1,10 @@
 // CUDA backend entry points. A plain C++ header: callers never see CUDA types.
 #pragma once
 
+#include <memory>
 #include <string>
 
+#include "cache/cast_device.h"
 #include "core/cpu_renderer.h"
 
 namespace sl::cuda {
@@ -16,8 +18,41 @@ struct DeviceInfo {
 // Never throws: no driver or no device gives count 0 and the runtime's reason.
 DeviceInfo query_devices();
 
-// Renders on device 0 with the same sample grid and per-sample code as the CPU backend.
-// Supported now: method `none`. Throws InputError for what this backend does not support yet.
+// In core: a CpuRenderer::Caster that casts on device 0 with the skipping structures the CPU renderer
+// prepared (segment lists, octree), uploaded each frame; the volume is uploaded once per Volume.
+// Methods none, bbox, octree, sparseleap; every mode. The returned function owns the device state.
+CpuRenderer::Caster make_frame_caster();
+
+// One frame on device 0 (a CpuRenderer with make_frame_caster()); stats.backend = "cuda".
 Frame render(const Scene& scene, const RenderSettings& settings);
+
+// Out of core: the device side of OutOfCoreRenderer (cache/cast_device.h): page table, slot pool,
+// miss buffer and usage stamps in device memory, brick uploads on a stream that overlaps the frame.
+struct CastDeviceOptions {
+  // Sample resident bricks with the texture unit (3D CUDA array atlas, hardware trilinear; close to
+  // but not bit-identical with the CPU) instead of software trilinear from a linear slot pool (the
+  // default: the same SlotSampler arithmetic as the CPU). u32 volumes always use the software path.
+  bool texture_atlas = false;
+};
+std::unique_ptr<CastDevice> make_cast_device(const CastDeviceOptions& options = {});
+
+// Buffer interop (cudaGraphicsGLRegisterBuffer): maps the GL builder's lists (events and count
+// buffers, GlSegmentListBuilder::events_buffer()/counts_buffer()) into CUDA for the duration of a
+// scope, so the kernels read them without a copy. Needs a current GL context on a CUDA-capable GPU.
+// Compiled only: unverified without a GPU.
+class GlListInterop {
+ public:
+  GlListInterop(unsigned int events_buffer, unsigned int counts_buffer);
+  ~GlListInterop();
+  GlListInterop(const GlListInterop&) = delete;
+  GlListInterop& operator=(const GlListInterop&) = delete;
+  // Maps both buffers and returns a device view of them (valid until unmap()).
+  SegmentListView map(int width, int height, std::uint32_t capacity);
+  void unmap();
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
 
 }  // namespace sl::cuda

@@ -1,0 +1,77 @@
+#include "cache/cast_device.h"
+
+#include <algorithm>
+
+#include "cache/virtual_sampler.h"
+#include "core/cast_frame.h"
+
+namespace sl {
+
+void PageTableUpdate::clear() {
+  dir_index.clear();
+  dir_value.clear();
+  pool_index.clear();
+  pool_value.clear();
+}
+
+std::uint64_t PageTableUpdate::pool_words_needed() const {
+  std::uint64_t n = 0;
+  for (std::uint64_t i : pool_index) n = std::max(n, i + 1);
+  for (std::uint32_t d : dir_value) n = std::max(n, std::uint64_t(d) * kPageEntries);  // d = page + 1
+  return n;
+}
+
+void split_page_table_update(const PageTableUpdate& u, const std::vector<bool>& in_flight, PageTableUpdate& now,
+                             PageTableUpdate& later) {
+  // Directory words carry no data dependency: a newly allocated page reads Unmapped until its words
+  // arrive.
+  now.dir_index.insert(now.dir_index.end(), u.dir_index.begin(), u.dir_index.end());
+  now.dir_value.insert(now.dir_value.end(), u.dir_value.begin(), u.dir_value.end());
+  for (std::size_t k = 0; k < u.pool_index.size(); ++k) {
+    const PageEntry e{u.pool_value[k]};
+    const bool wait = e.is_resident() && e.slot() < in_flight.size() && in_flight[e.slot()];
+    PageTableUpdate& dst = wait ? later : now;
+    dst.pool_index.push_back(u.pool_index[k]);
+    dst.pool_value.push_back(u.pool_value[k]);
+  }
+}
+
+namespace {
+
+template <class T, class L>
+void cast_typed(const CastParams& p, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,
+                std::uint32_t frame_number, const VirtualMemoryView& vm, Frame& frame) {
+  VirtualSampler<T, L> sampler;
+  sampler.layout = vm.layout;
+  sampler.page_table = vm.page_table;
+  sampler.cache = vm.cache;
+  sampler.misses = vm.misses;
+  sampler.frame = frame_number;
+  sampler.has_labels = vm.has_labels;
+  const RayCaster<VirtualSampler<T, L>> caster{p, sampler};
+  cast_frame(caster, gen, vbox, skip, frame);
+}
+
+template <class T>
+void cast_labels_typed(const CastParams& p, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,
+                       std::uint32_t n, const VirtualMemoryView& vm, Frame& f) {
+  switch (vm.has_labels ? vm.cache.label_type : VoxelType::U8) {
+    case VoxelType::U8: cast_typed<T, std::uint8_t>(p, gen, vbox, skip, n, vm, f); break;
+    case VoxelType::U16: cast_typed<T, std::uint16_t>(p, gen, vbox, skip, n, vm, f); break;
+    default: cast_typed<T, std::uint32_t>(p, gen, vbox, skip, n, vm, f); break;
+  }
+}
+
+}  // namespace
+
+void cast_virtual_frame(const CastParams& p, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,
+                        std::uint32_t n, const VirtualMemoryView& vm, Frame& f) {
+  switch (vm.cache.voxel_type) {
+    case VoxelType::U8: cast_labels_typed<std::uint8_t>(p, gen, vbox, skip, n, vm, f); break;
+    case VoxelType::U16: cast_labels_typed<std::uint16_t>(p, gen, vbox, skip, n, vm, f); break;
+    case VoxelType::U32: cast_labels_typed<std::uint32_t>(p, gen, vbox, skip, n, vm, f); break;
+    case VoxelType::F32: cast_labels_typed<float>(p, gen, vbox, skip, n, vm, f); break;
+  }
+}
+
+}  // namespace sl

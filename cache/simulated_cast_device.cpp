@@ -1,0 +1,143 @@
+#include "cache/simulated_cast_device.h"
+
+#include <algorithm>
+#include <cstring>
+
+#include "core/config.h"
+
+namespace sl {
+
+void SimulatedCastDevice::configure(const DeviceConfig& c) {
+  config_ = c;
+  const std::uint64_t n = c.layout.stored_voxels();
+  voxel_stride_ = n * std::uint64_t(voxel_size(c.voxel_type));
+  label_stride_ = c.has_labels ? n * std::uint64_t(voxel_size(c.label_type)) : 0;
+  voxels_.assign(std::size_t(voxel_stride_ * c.slot_count), std::byte{0});
+  labels_.assign(std::size_t(label_stride_ * c.slot_count), std::byte{0});
+  usage_.assign(c.slot_count, 0u);
+  directory_.assign(c.directory_words, 0u);
+  pool_.clear();
+  misses_ = std::make_unique<MissBuffer>(c.miss_capacity);
+  pending_.clear();
+  in_flight_.assign(c.slot_count, false);
+  held_.clear();
+}
+
+void SimulatedCastDevice::apply(const PageTableUpdate& u) {
+  const std::uint64_t need = u.pool_words_needed();
+  if (need > pool_.size()) pool_.resize(std::size_t((need + kPageEntries - 1) / kPageEntries * kPageEntries), 0u);
+  for (std::size_t k = 0; k < u.dir_index.size(); ++k) directory_[u.dir_index[k]] = u.dir_value[k];
+  for (std::size_t k = 0; k < u.pool_index.size(); ++k) pool_[std::size_t(u.pool_index[k])] = u.pool_value[k];
+}
+
+void SimulatedCastDevice::begin_frame() {
+  // The stream of last frame's uploads has completed: the slots hold their bricks, and the words
+  // mapping them become visible.
+  for (Pending& p : pending_) {
+    std::memcpy(voxels_.data() + p.slot * voxel_stride_, p.voxels.data(), p.voxels.size());
+    if (label_stride_ && !p.labels.empty()) {
+      std::memcpy(labels_.data() + p.slot * label_stride_, p.labels.data(), p.labels.size());
+    }
+    in_flight_[p.slot] = false;
+  }
+  pending_.clear();
+  apply(held_);
+  held_.clear();
+  frame_ = SimulatedTransfers{};
+  ++frame_.frames;
+  ++total_.frames;
+}
+
+void SimulatedCastDevice::upload_bricks(std::span<const BrickUpload> bricks) {
+  for (const BrickUpload& b : bricks) {
+    SL_CHECK(b.slot < config_.slot_count && b.voxels.size() == voxel_stride_);
+    Pending p{b.slot, {b.voxels.begin(), b.voxels.end()}, {}};  // staged: the host may reuse its buffer
+    if (label_stride_) {
+      SL_CHECK(b.labels.size() == label_stride_);
+      p.labels.assign(b.labels.begin(), b.labels.end());
+    }
+    in_flight_[b.slot] = true;
+    pending_.push_back(std::move(p));
+    const std::uint64_t bytes = b.voxels.size() + b.labels.size();
+    ++frame_.bricks_uploaded;
+    ++total_.bricks_uploaded;
+    frame_.brick_bytes += bytes;
+    total_.brick_bytes += bytes;
+  }
+}
+
+void SimulatedCastDevice::sync_page_table(const PageTableUpdate& update) {
+  PageTableUpdate now;
+  split_page_table_update(update, in_flight_, now, held_);
+  apply(now);
+  const std::uint64_t deferred = update.words() - now.words();
+  frame_.page_words += update.words();
+  total_.page_words += update.words();
+  frame_.page_words_deferred += deferred;
+  total_.page_words_deferred += deferred;
+}
+
+VirtualMemoryView SimulatedCastDevice::view() {
+  VirtualMemoryView vm;
+  vm.layout = &config_.layout;
+  vm.page_table = config_.page_table_geometry;
+  vm.page_table.directory = directory_.data();
+  vm.page_table.pool = pool_.data();
+  BrickCacheView& c = vm.cache;
+  c.voxels = voxels_.data();
+  c.labels = label_stride_ ? labels_.data() : nullptr;
+  c.usage = usage_.data();
+  c.voxel_stride = voxel_stride_;
+  c.label_stride = label_stride_;
+  c.slot_count = config_.slot_count;
+  c.stored = config_.layout.stored_size();
+  c.voxel_type = config_.voxel_type;
+  c.label_type = config_.label_type;
+  c.has_labels = label_stride_ ? 1 : 0;
+  vm.misses = misses_->view();
+  vm.has_labels = config_.has_labels;
+  return vm;
+}
+
+void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback& fb) {
+  misses_->clear();
+  // The segment lists cross to the device as a copy, as the CUDA device uploads them.
+  SegmentListBuffer lists;
+  SkipInputs skip = r.skip;
+  if (skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) {
+    const SegmentListView& v = r.skip.lists;
+    const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
+    lists.width = v.width;
+    lists.height = v.height;
+    lists.capacity = v.capacity;
+    lists.events.assign(v.events, v.events + pixels * v.capacity);
+    lists.counts.assign(v.counts, v.counts + pixels);
+    skip.lists = lists.view();
+  }
+  cast_virtual_frame(r.params, r.gen, r.vbox, skip, r.frame, view(), frame);
+  // Copied back once per frame: the distinct misses and the slots used in this frame.
+  fb.misses = misses_->drain();
+  fb.dropped = misses_->dropped();
+  fb.used_slots.clear();
+  for (std::uint32_t s = 0; s < config_.slot_count; ++s) {
+    if (usage_[s] == r.frame) fb.used_slots.push_back(s);
+  }
+  frame_.misses_returned += fb.misses.size();
+  total_.misses_returned += fb.misses.size();
+  frame_.usage_returned += fb.used_slots.size();
+  total_.usage_returned += fb.used_slots.size();
+}
+
+PageEntry SimulatedCastDevice::entry(BrickId id) const {
+  PageTableView v = config_.page_table_geometry;
+  v.directory = directory_.data();
+  v.pool = pool_.data();
+  return v.lookup(id);
+}
+
+std::span<const std::byte> SimulatedCastDevice::slot_voxels(std::uint32_t slot) const {
+  SL_CHECK(slot < config_.slot_count);
+  return {voxels_.data() + slot * voxel_stride_, std::size_t(voxel_stride_)};
+}
+
+}  // namespace sl

@@ -1,0 +1,91 @@
+// Reads the CUDA fat binaries embedded in a host binary (executable, object or archive) without the
+// CUDA toolkit's cuobjdump (not in the nvcc packages these machines have): every fatbin blob starts
+// with the magic 0xBA55ED50; its entries are PTX (kind 1, compressed by default) or ELF cubins
+// (kind 2, stored uncompressed unless -compress-all), each with its SM architecture. For the cubins
+// the function names are read from the ELF section headers (a kernel's code is ".text.<mangled>").
+// Layout as nvcc 13's fatbinary writes it, checked against the files it produces.
+#pragma once
+
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <set>
+#include <string>
+#include <vector>
+
+namespace sl::test {
+
+struct FatbinContents {
+  std::map<int, std::set<std::string>> elf_functions;  // sm -> ".text." section names (mangled)
+  std::set<int> ptx_archs;                             // archs with a PTX entry
+  int blobs = 0;
+};
+
+namespace fatbin_detail {
+
+template <class T>
+T rd(const std::vector<char>& d, std::size_t off) {
+  T v{};
+  if (off + sizeof(T) <= d.size()) std::memcpy(&v, d.data() + off, sizeof(T));
+  return v;
+}
+
+inline void read_cubin(const std::vector<char>& d, std::size_t base, std::size_t size, std::set<std::string>& out) {
+  if (size < 64 || std::memcmp(d.data() + base, "\x7f" "ELF", 4) != 0 || d[base + 4] != 2) return;  // ELF64 only
+  const auto shoff = rd<std::uint64_t>(d, base + 0x28);
+  const auto shentsize = rd<std::uint16_t>(d, base + 0x3A);
+  const auto shnum = rd<std::uint16_t>(d, base + 0x3C);
+  const auto shstrndx = rd<std::uint16_t>(d, base + 0x3E);
+  if (shoff + std::uint64_t(shnum) * shentsize > size || shstrndx >= shnum) return;
+  const std::size_t strsec = base + shoff + std::size_t(shstrndx) * shentsize;
+  const auto stroff = rd<std::uint64_t>(d, strsec + 0x18);
+  const auto strsize = rd<std::uint64_t>(d, strsec + 0x20);
+  if (stroff + strsize > size) return;
+  for (std::uint16_t i = 0; i < shnum; ++i) {
+    const std::size_t sh = base + shoff + std::size_t(i) * shentsize;
+    const auto name = rd<std::uint32_t>(d, sh);
+    if (name >= strsize) continue;
+    const char* s = d.data() + base + stroff + name;
+    const std::string n(s, strnlen(s, std::size_t(strsize - name)));
+    if (n.rfind(".text.", 0) == 0) out.insert(n.substr(6));
+  }
+}
+
+}  // namespace fatbin_detail
+
+inline FatbinContents read_fatbins(const std::string& path) {
+  using namespace fatbin_detail;
+  std::ifstream f(path, std::ios::binary);
+  const std::vector<char> d((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  FatbinContents c;
+  const char magic[4] = {char(0x50), char(0xED), char(0x55), char(0xBA)};
+  for (std::size_t i = 0; i + 16 <= d.size(); ++i) {
+    if (std::memcmp(d.data() + i, magic, 4) != 0) continue;
+    const auto version = rd<std::uint16_t>(d, i + 4);
+    const auto header = rd<std::uint16_t>(d, i + 6);
+    const auto fat_size = rd<std::uint64_t>(d, i + 8);
+    if (version != 1 || header != 16 || i + header + fat_size > d.size()) continue;
+    ++c.blobs;
+    std::size_t p = i + header;
+    const std::size_t end = p + fat_size;
+    while (p + 64 <= end) {
+      const auto kind = rd<std::uint16_t>(d, p);
+      const auto entry_header = rd<std::uint32_t>(d, p + 4);
+      const auto size = rd<std::uint64_t>(d, p + 8);
+      const auto arch = rd<std::uint32_t>(d, p + 28);
+      const auto flags = rd<std::uint64_t>(d, p + 40);
+      if (entry_header < 64 || p + entry_header + size > end) break;
+      const bool compressed = (flags & 0x2000u) != 0;
+      if (kind == 1) c.ptx_archs.insert(int(arch));
+      if (kind == 2 && !compressed) read_cubin(d, p + entry_header, std::size_t(size), c.elf_functions[int(arch)]);
+      if (kind == 2 && compressed) c.elf_functions[int(arch)].insert("<compressed>");
+      p += entry_header + size;
+    }
+    i = end - 1;
+  }
+  return c;
+}
+
+}  // namespace sl::test
