@@ -148,7 +148,14 @@ int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
   js["volume"] = name;
   js["views"] = nlohmann::json::array();
   std::ostringstream csv;
-  csv << "view,frame,total_ms,raycast_ms,lists_ms,loads,misses,pending,resident_mb,tree_nodes,page_table_kb,samples\n";
+  // Cache hit rate per frame: distinct bricks the rays used that were resident, over those plus the
+  // distinct bricks they missed.
+  const auto hit_rate = [](const Stats& st) {
+    const double all = double(st.cache.hits) + double(st.cache.misses);
+    return all > 0.0 ? double(st.cache.hits) / all : 1.0;
+  };
+  csv << "view,frame,total_ms,raycast_ms,lists_ms,loads,hits,misses,hit_rate,pending,resident_mb,tree_nodes,"
+         "page_table_kb,samples\n";
   std::vector<double> conv_ms;
   int unconverged = 0;
   std::uint64_t total_loads = 0, total_frames = 0;
@@ -157,13 +164,15 @@ int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
     Frame f;
     int n = 0;
     std::uint64_t loads = 0;
+    double first_hit_rate = 1.0;
     while (n < o.max_frames_per_view) {
       f = renderer.render(scene, rs);
       ++n;
       loads += f.stats.cache.loads;
+      if (n == 1) first_hit_rate = hit_rate(f.stats);
       csv << v << ',' << n << ',' << f.stats.time_ms.total << ',' << f.stats.time_ms.raycast << ','
-          << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.misses << ','
-          << f.stats.cache.pending << ',' << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ','
+          << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.hits << ','
+          << f.stats.cache.misses << ',' << hit_rate(f.stats) << ',' << f.stats.cache.pending << ',' << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ','
           << f.stats.cache.page_table_kb << ',' << f.stats.samples << '\n';
       if (renderer.converged()) break;
     }
@@ -179,7 +188,7 @@ int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
     js["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"converged_frame_ms", f.stats.time_ms.total},
                            {"loads", loads}, {"resident_mb", f.stats.cache.resident_mb},
                            {"tree_nodes", f.stats.tree_nodes}, {"page_table_kb", f.stats.cache.page_table_kb},
-                           {"samples", f.stats.samples}});
+                           {"samples", f.stats.samples}, {"first_frame_hit_rate", first_hit_rate}});
   }
   js["median_converged_frame_ms"] = percentile(conv_ms, 0.5);
   js["loads_per_frame"] = total_frames ? double(total_loads) / double(total_frames) : 0.0;
