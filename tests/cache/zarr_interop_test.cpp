@@ -6,6 +6,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <ostream>
 
 #include "cache/ingest.h"
 #include "cache/nrrd.h"
@@ -153,6 +154,10 @@ struct WriteCase {
   std::string compressor;
   VoxelType type;
   bool labels;
+  // gtest prints the parameter of a failing case; without this it dumps the struct's bytes.
+  friend void PrintTo(const WriteCase& c, std::ostream* os) {
+    *os << c.compressor << ' ' << to_string(c.type) << (c.labels ? " with labels" : "");
+  }
 };
 
 class ZarrPeerOpensOurs : public ::testing::TestWithParam<WriteCase> {};
