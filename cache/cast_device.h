@@ -57,6 +57,25 @@ struct DeviceConfig {
   std::size_t directory_words = 0;
 };
 
+// The caster's view of a device's slot pool: the same fields whatever memory holds the slots (the CPU
+// stand-in's vectors, CUDA allocations). label_stride 0 means no labels.
+inline BrickCacheView device_cache_view(const DeviceConfig& config, std::byte* voxels, std::byte* labels,
+                                        std::uint32_t* usage, std::uint64_t voxel_stride,
+                                        std::uint64_t label_stride) {
+  BrickCacheView c;
+  c.voxels = voxels;
+  c.labels = label_stride ? labels : nullptr;
+  c.usage = usage;
+  c.voxel_stride = voxel_stride;
+  c.label_stride = label_stride;
+  c.slot_count = config.slot_count;
+  c.stored = config.layout.stored_size();
+  c.voxel_type = config.voxel_type;
+  c.label_type = config.label_type;
+  c.has_labels = label_stride ? 1 : 0;
+  return c;
+}
+
 struct BrickUpload {
   std::uint32_t slot = 0;
   BrickId id;

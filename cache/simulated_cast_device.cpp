@@ -83,17 +83,7 @@ VirtualMemoryView SimulatedCastDevice::view() {
   vm.page_table = config_.page_table_geometry;
   vm.page_table.directory = directory_.data();
   vm.page_table.pool = pool_.data();
-  BrickCacheView& c = vm.cache;
-  c.voxels = voxels_.data();
-  c.labels = label_stride_ ? labels_.data() : nullptr;
-  c.usage = usage_.data();
-  c.voxel_stride = voxel_stride_;
-  c.label_stride = label_stride_;
-  c.slot_count = config_.slot_count;
-  c.stored = config_.layout.stored_size();
-  c.voxel_type = config_.voxel_type;
-  c.label_type = config_.label_type;
-  c.has_labels = label_stride_ ? 1 : 0;
+  vm.cache = device_cache_view(config_, voxels_.data(), labels_.data(), usage_.data(), voxel_stride_, label_stride_);
   vm.misses = misses_->view();
   vm.has_labels = config_.has_labels;
   return vm;

@@ -253,17 +253,8 @@ class CudaCastDevice final : public CastDevice {
     s.v.page_table = config_.page_table_geometry;
     s.v.page_table.directory = directory_.get();
     s.v.page_table.pool = pool_.get();
-    BrickCacheView& c = s.v.cache;
-    c.voxels = use_atlas_ ? nullptr : voxels_.get();
-    c.labels = label_stride_ ? labels_.get() : nullptr;
-    c.usage = usage_.get();
-    c.voxel_stride = voxel_stride_;
-    c.label_stride = label_stride_;
-    c.slot_count = config_.slot_count;
-    c.stored = config_.layout.stored_size();
-    c.voxel_type = config_.voxel_type;
-    c.label_type = config_.label_type;
-    c.has_labels = label_stride_ ? 1 : 0;
+    s.v.cache = device_cache_view(config_, use_atlas_ ? nullptr : voxels_.get(), labels_.get(), usage_.get(),
+                                  voxel_stride_, label_stride_);
     MissBufferView& m = s.v.misses;
     m.table = miss_table_.get();
     m.list = miss_list_.get();
