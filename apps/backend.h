@@ -7,7 +7,7 @@
 
 #include "cache/cast_device.h"
 #include "cache/out_of_core.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 
 namespace sl::app {
 
@@ -25,9 +25,9 @@ Backend choose_backend(const std::string& name, std::string* notice = nullptr);
 enum class ListSource { Cpu, Gl };
 ListSource parse_list_source(const std::string& name);
 
-// A CpuRenderer::ListBuilder running on a headless GL context made here (InputError naming --lists
+// A InCoreRenderer::ListBuilder running on a headless GL context made here (InputError naming --lists
 // when no context can be made). The function owns the context and the builder.
-CpuRenderer::ListBuilder make_gl_list_builder();
+InCoreRenderer::ListBuilder make_gl_list_builder();
 
 // The out-of-core cast device of a backend: the CUDA device, or null (the CPU caster).
 std::unique_ptr<CastDevice> make_cast_device(Backend b);
@@ -41,7 +41,7 @@ class FrameRenderer {
 
  private:
   Backend backend_;
-  CpuRenderer cpu_;  // prepares the skipping structures for every backend; casts for the CPU
+  InCoreRenderer cpu_;  // prepares the skipping structures for every backend; casts for the CPU
 };
 
 inline Frame render_frame(Backend b, const Scene& scene, const RenderSettings& s) {

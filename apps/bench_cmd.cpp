@@ -16,6 +16,7 @@
 
 #include "apps/backend.h"
 #include "cache/out_of_core.h"
+#include "cache/synthetic/procedural_neurites.h"
 #include "cache/volume_source.h"
 #include "apps/commands.h"
 #include "apps/scene_loader.h"

@@ -4,8 +4,8 @@
 #include <regex>
 
 #include "apps/commands.h"
-#include "cache/generate.h"
-#include "cache/nrrd.h"
+#include "cache/synthetic/generate.h"
+#include "cache/formats/nrrd.h"
 #include "core/error.h"
 #include "core/stats.h"
 

@@ -4,9 +4,9 @@
 #include <memory>
 
 #include "apps/commands.h"
-#include "cache/nrrd.h"
-#include "cache/zarr_meta.h"
-#include "cache/zarr_source.h"
+#include "cache/formats/nrrd.h"
+#include "cache/formats/zarr_meta.h"
+#include "cache/formats/zarr_source.h"
 #include "core/error.h"
 
 namespace sl::app {

@@ -8,7 +8,7 @@
 #include <unistd.h>
 
 #include "apps/commands.h"
-#include "cache/ingest.h"
+#include "cache/formats/ingest.h"
 #include "core/error.h"
 
 namespace sl::app {

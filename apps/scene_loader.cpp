@@ -4,10 +4,11 @@
 #include <cstdio>
 #include <regex>
 
-#include "cache/generate.h"
-#include "cache/nrrd.h"
-#include "cache/zarr_meta.h"
-#include "cache/zarr_source.h"
+#include "cache/synthetic/generate.h"
+#include "cache/synthetic/procedural_neurites.h"
+#include "cache/formats/nrrd.h"
+#include "cache/formats/zarr_meta.h"
+#include "cache/formats/zarr_source.h"
 #include "core/error.h"
 
 #include <unistd.h>

@@ -8,7 +8,7 @@
 
 #include "cache/volume_source.h"
 #include "core/camera.h"
-#include "core/cpu_renderer.h"
+#include "core/frame.h"
 #include "core/labels.h"
 #include "core/transfer_function.h"
 #include "core/volume.h"

@@ -32,7 +32,7 @@
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
 #include "core/cast_pixel.h"
-#include "core/cpu_renderer.h"
+#include "core/frame.h"
 
 namespace sl {
 

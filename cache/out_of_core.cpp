@@ -418,7 +418,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
     const std::vector<VisibilityEntry> order = build_visibility_order(tree_, geometry, view_point(gen));
     st.time_ms.order = t.ms();
     t = Timer();
-    lists.reset(s.width, s.height, CpuRenderer::kListCapacity);
+    lists.reset(s.width, s.height, InCoreRenderer::kListCapacity);
     const float eps = s.gap_eps * s.step * d.min_spacing();
     const SegmentListStats ls =
         list_builder_ ? list_builder_(geometry, order, gen, lists, eps) : build_segment_lists(geometry, order, gen, lists, eps);

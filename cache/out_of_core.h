@@ -17,7 +17,7 @@
 #include "cache/page_table.h"
 #include "cache/volume_source.h"
 #include "core/block_metadata.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 #include "core/occupancy_tree.h"
 
 namespace sl {
@@ -62,7 +62,7 @@ class OutOfCoreRenderer {
   void wait_for_loads() { loader_.wait_idle(); }
   const CastDevice& device() const { return *device_; }
   // Builds the SparseLeap lists instead of build_segment_lists (e.g. the GL builder, `--lists gl`).
-  void set_list_builder(CpuRenderer::ListBuilder builder) { list_builder_ = std::move(builder); }
+  void set_list_builder(InCoreRenderer::ListBuilder builder) { list_builder_ = std::move(builder); }
   // The host's page-table entry of a brick (tests compare a device's mirror with it).
   PageEntry page_entry(BrickId id) const { return page_table_.get(id); }
   // Slot of the brick cache holding `id`, if resident; the brick in a slot; a slot's usage stamp.
@@ -106,7 +106,7 @@ class OutOfCoreRenderer {
   std::uint64_t loads_this_frame_ = 0;
   std::vector<std::string> failures_reported_;
   std::unique_ptr<CastDevice> device_;
-  CpuRenderer::ListBuilder list_builder_;
+  InCoreRenderer::ListBuilder list_builder_;
   bool device_memory_ = false;  // the device keeps its own copies (uploads, page-table sync, feedback)
   PageTableUpdate dirty_;       // page-table words changed since the last sync
   std::vector<BrickUpload> uploads_;  // this frame's new resident bricks (device memory)

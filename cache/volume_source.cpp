@@ -76,6 +76,5 @@ void MemoryVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::
   }
 }
 
-bool is_procedural_spec(const std::string& spec) { return spec.rfind("procedural:", 0) == 0; }
 
 }  // namespace sl

@@ -72,10 +72,5 @@ class MemoryVolumeSource final : public VolumeSource {
   std::vector<Volume> levels_, label_levels_;  // index 0 unused (the inputs are level 0)
 };
 
-// "procedural:neurites:XxYxZ[:seed]" -> a ProceduralNeuritesSource. Throws InputError(spec, reason)
-// for anything else or bad numbers.
-std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec);
-// True when `spec` names a procedural source (starts with "procedural:"), not a file.
-bool is_procedural_spec(const std::string& spec);
 
 }  // namespace sl

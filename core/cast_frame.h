@@ -9,7 +9,7 @@
 #include <cstdint>
 
 #include "core/cast_pixel.h"
-#include "core/cpu_renderer.h"
+#include "core/frame.h"
 #include "core/octree_skip.h"
 #include "core/parallel.h"
 #include "core/raycast.h"

@@ -12,7 +12,7 @@
 #include <cstdint>
 
 #include "core/cast_pixel.h"
-#include "core/cpu_renderer.h"
+#include "core/frame.h"
 #include "core/stats.h"
 #include "cuda/cuda_util.h"
 

@@ -158,14 +158,14 @@ DeviceInfo query_devices() {
   return info;
 }
 
-CpuRenderer::Caster make_frame_caster() {
+InCoreRenderer::Caster make_frame_caster() {
   auto state = std::make_shared<InCoreCaster>();
   return [state](const Scene& scene, const RenderSettings& s, const CastParams& p, const SkipInputs& skip,
                  Frame& frame) { state->cast(scene, s, p, skip, frame); };
 }
 
 Frame render(const Scene& scene, const RenderSettings& s) {
-  CpuRenderer r;
+  InCoreRenderer r;
   r.set_caster(make_frame_caster());
   Frame f = r.render(scene, s);
   f.stats.backend = "cuda";

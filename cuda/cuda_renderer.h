@@ -5,7 +5,7 @@
 #include <string>
 
 #include "cache/cast_device.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 
 namespace sl::cuda {
 
@@ -18,12 +18,12 @@ struct DeviceInfo {
 // Never throws: no driver or no device gives count 0 and the runtime's reason.
 DeviceInfo query_devices();
 
-// In core: a CpuRenderer::Caster that casts on device 0 with the skipping structures the CPU renderer
+// In core: a InCoreRenderer::Caster that casts on device 0 with the skipping structures the CPU renderer
 // prepared (segment lists, octree), uploaded each frame; the volume is uploaded once per Volume.
 // Methods none, bbox, octree, sparseleap; every mode. The returned function owns the device state.
-CpuRenderer::Caster make_frame_caster();
+InCoreRenderer::Caster make_frame_caster();
 
-// One frame on device 0 (a CpuRenderer with make_frame_caster()); stats.backend = "cuda".
+// One frame on device 0 (a InCoreRenderer with make_frame_caster()); stats.backend = "cuda".
 Frame render(const Scene& scene, const RenderSettings& settings);
 
 // Out of core: the device side of OutOfCoreRenderer (cache/cast_device.h): page table, slot pool,

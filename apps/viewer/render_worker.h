@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/cpu_renderer.h"
+#include "core/frame.h"
 
 namespace sl::viewer {
 

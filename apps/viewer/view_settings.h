@@ -6,7 +6,7 @@
 
 #include <type_traits>
 
-#include "core/cpu_renderer.h"
+#include "core/frame.h"
 
 namespace sl::viewer {
 

@@ -5,8 +5,8 @@
 #include <filesystem>
 #include <fstream>
 
-#include "cache/generate.h"
-#include "cache/nrrd.h"
+#include "cache/synthetic/generate.h"
+#include "cache/formats/nrrd.h"
 #include "core/image.h"
 #include "tests/test_util.h"
 

@@ -9,7 +9,7 @@
 #include <thread>
 #include <vector>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
 #include "core/error.h"
 
 namespace sl {

@@ -6,10 +6,10 @@
 #include <cmath>
 #include <memory>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
 #include "cache/out_of_core.h"
-#include "cache/procedural_neurites.h"
-#include "core/cpu_renderer.h"
+#include "cache/synthetic/procedural_neurites.h"
+#include "core/in_core_renderer.h"
 #include "core/error.h"
 #include "tests/test_util.h"
 
@@ -60,7 +60,7 @@ TEST(OutOfCore, ConvergedImageEqualsInCoreWithAQuarterCache) {
   s.height = 80;
   // In core.
   Scene scene{d.volume.get(), d.labels.get(), &tf, &enabled, cam};
-  const Frame in_core = CpuRenderer().render(scene, s);
+  const Frame in_core = InCoreRenderer().render(scene, s);
   // Out of core, level 0 pinned, cache of a quarter of the volume (intensity + labels).
   OutOfCoreSettings os;
   os.brick = 16;
@@ -88,7 +88,7 @@ TEST(OutOfCore, ConvergedImageEqualsInCoreForIsoAndFullCache) {
   s.mode = RenderMode::Iso;
   s.iso = 140.0f;
   Scene scene{d.volume.get(), d.labels.get(), &tf, nullptr, cam};
-  const Frame in_core = CpuRenderer().render(scene, s);
+  const Frame in_core = InCoreRenderer().render(scene, s);
   OutOfCoreSettings os;
   os.brick = 32;
   os.lod = 0;

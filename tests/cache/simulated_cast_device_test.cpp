@@ -8,10 +8,10 @@
 #include <cstring>
 #include <memory>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
 #include "cache/out_of_core.h"
 #include "cache/simulated_cast_device.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 
 namespace sl {
 namespace {
@@ -87,7 +87,7 @@ TEST(SimulatedCastDevice, ConvergedImageEqualsCpuOutOfCoreAndInCore) {
   RenderSettings s;
   s.width = 80;
   s.height = 64;
-  const Frame in_core = CpuRenderer().render(Scene{d.volume.get(), d.labels.get(), &tf, &enabled, cam}, s);
+  const Frame in_core = InCoreRenderer().render(Scene{d.volume.get(), d.labels.get(), &tf, &enabled, cam}, s);
   OutOfCoreSettings os;
   os.brick = 16;
   os.lod = 0;

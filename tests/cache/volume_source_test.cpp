@@ -7,7 +7,8 @@
 #include <memory>
 #include <vector>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
+#include "cache/synthetic/procedural_neurites.h"
 #include "core/error.h"
 
 namespace sl {

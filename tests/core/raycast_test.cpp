@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstring>
 
-#include "cache/generate.h"
-#include "core/cpu_renderer.h"
+#include "cache/synthetic/generate.h"
+#include "core/in_core_renderer.h"
 
 namespace sl {
 namespace {
@@ -38,7 +38,7 @@ TEST(RayCast, ConstantSlabMatchesBeerLambert) {
     s.width = s.height = 8;
     s.method = SkipMethod::None;
     s.step = step;
-    CpuRenderer r;
+    InCoreRenderer r;
     const Frame f = r.render(scene, s);
     // Ray length 64 along z; samples t_k < 64, k = 0 .. 64/dt - 1, each α' = 1 − (1 − a)^step.
     const float expected_alpha = 1.0f - std::pow(1.0f - a, 64.0f);
@@ -65,7 +65,7 @@ TEST(RayCast, AnisotropicSpacingUsesMinSpacingForOpacityCorrection) {
   RenderSettings s;
   s.width = s.height = 4;
   s.method = SkipMethod::None;
-  CpuRenderer r;
+  InCoreRenderer r;
   const Frame f = r.render(scene, s);
   // World depth 64, reference length min spacing = 1.
   EXPECT_NEAR(f.image.at(2, 2).w, 1.0f - std::pow(1.0f - a, 64.0f), 2e-5f);
@@ -82,7 +82,7 @@ TEST(RayCast, IsosurfaceDepthOnSphereWithinAVoxelFraction) {
   s.mode = RenderMode::Iso;
   s.iso = 20.0f;
   s.method = SkipMethod::None;
-  CpuRenderer r;
+  InCoreRenderer r;
   const Frame f = r.render(scene, s);
   const auto& depth = f.image.channels.at("depth");
   int checked = 0;
@@ -116,7 +116,7 @@ TEST(RayCast, MipTakesTheMaximumAlongTheRay) {
   s.width = s.height = 8;
   s.mode = RenderMode::Mip;
   s.method = SkipMethod::None;
-  CpuRenderer r;
+  InCoreRenderer r;
   const Frame f = r.render(scene, s);
   // Samples hit voxel 20's centre exactly (t_k on the half-voxel grid), so the max is 200.
   const vec4 c = f.image.at(3, 3);
@@ -138,11 +138,11 @@ TEST(RayCast, ImageIsBitIdenticalForAnyThreadCount) {
   Frame one, two;
   {
     tbb::global_control c(tbb::global_control::max_allowed_parallelism, 1);
-    one = CpuRenderer().render(scene, s);
+    one = InCoreRenderer().render(scene, s);
   }
   {
     tbb::global_control c(tbb::global_control::max_allowed_parallelism, 2);
-    two = CpuRenderer().render(scene, s);
+    two = InCoreRenderer().render(scene, s);
   }
   ASSERT_EQ(one.image.rgba.size(), two.image.rgba.size());
   EXPECT_EQ(0, std::memcmp(one.image.rgba.data(), two.image.rgba.data(), one.image.rgba.size() * sizeof(vec4)));
@@ -165,7 +165,7 @@ TEST(RayCast, EarlyRayTerminationStopsAtThreshold) {
   s.width = s.height = 4;
   s.method = SkipMethod::None;
   s.ert = true;
-  const Frame f = CpuRenderer().render(scene, s);
+  const Frame f = InCoreRenderer().render(scene, s);
   EXPECT_GE(f.image.at(1, 1).w, 0.99f);
   EXPECT_LT(f.image.channels.at("samples")[5], 20.0f);  // far fewer than 256
 }

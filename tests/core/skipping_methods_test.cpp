@@ -5,9 +5,9 @@
 
 #include <cmath>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
 #include "core/block_metadata.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 #include "core/labels.h"
 
 namespace sl {
@@ -87,7 +87,7 @@ TEST_P(SkippingMethods, ProduceIdenticalImages) {
   std::vector<Frame> frames;
   for (SkipMethod m : kMethods) {
     s.method = m;
-    CpuRenderer r;
+    InCoreRenderer r;
     frames.push_back(r.render(scene, s));
   }
   const Frame& ref = frames[0];
@@ -141,7 +141,7 @@ TEST(SkippingReuse, TransferFunctionAndLabelChangesReuseMetadata) {
   Scene scene{&g.intensity, &g.labels, &a, nullptr, default_camera(g.intensity.desc().extent())};
   RenderSettings s;
   s.width = s.height = 32;
-  CpuRenderer r;
+  InCoreRenderer r;
   const Frame first = r.render(scene, s);
   EXPECT_GT(first.stats.metadata_blocks, 0u);
   const std::uint64_t computed = block_metadata_computations();
@@ -160,7 +160,7 @@ TEST(SkippingReuse, ListsAreReusedWhileTheViewIsUnchanged) {
   Scene scene{&g.intensity, &g.labels, &tf, nullptr, default_camera(g.intensity.desc().extent())};
   RenderSettings s;
   s.width = s.height = 40;
-  CpuRenderer r;
+  InCoreRenderer r;
   const Frame first = r.render(scene, s);
   EXPECT_GT(first.stats.events, 0u);
   s.step = 0.25f;  // step changes: lists stay

@@ -3,14 +3,14 @@
 // the CPU renderer — the entry point the kernels use is the CPU's, bit for bit.
 #include <gtest/gtest.h>
 
-#include "cache/generate.h"
-#include "core/cpu_renderer.h"
+#include "cache/synthetic/generate.h"
+#include "core/in_core_renderer.h"
 #include "tests/cuda/shared_headers_compile.cu"
 
 namespace sl {
 namespace {
 
-TEST(SharedHeaders, HostBuildOfTheKernelEntryMatchesTheCpuRenderer) {
+TEST(SharedHeaders, HostBuildOfTheKernelEntryMatchesTheInCoreRenderer) {
   const GeneratedVolume g = generate_volume("neurites", ivec3(40, 36, 32), 4);
   const TransferFunction tf = default_transfer_function(0, 255);
   Scene scene;
@@ -21,7 +21,7 @@ TEST(SharedHeaders, HostBuildOfTheKernelEntryMatchesTheCpuRenderer) {
   s.width = 24;
   s.height = 20;
   s.method = SkipMethod::None;
-  const Frame ref = CpuRenderer().render(scene, s);
+  const Frame ref = InCoreRenderer().render(scene, s);
   LabelSet storage;
   DenseGrid<std::uint8_t> grid{g.intensity.as<std::uint8_t>(), g.intensity.dims(), 1.0f / g.intensity.desc().spacing};
   const RayCaster<DenseSampler<std::uint8_t, std::uint8_t>> caster{make_cast_params(scene, s, storage), {grid, {}}};

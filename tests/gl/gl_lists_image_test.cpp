@@ -1,14 +1,14 @@
 // Images cast from GL-built lists equal those cast from CPU-built lists (what `--lists gl` will do).
 // The lists go through the CPU caster's own frame loop (core/cast_frame.h: cast_frame with a
-// SegmentListView, the loop CpuRenderer runs), so the comparison is the renderer's, not a copy of it.
+// SegmentListView, the loop InCoreRenderer runs), so the comparison is the renderer's, not a copy of it.
 #include <gtest/gtest.h>
 
 #include <cstring>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
 #include "core/block_metadata.h"
 #include "core/cast_frame.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 #include "core/culling.h"
 #include "core/segment_list_builder.h"
 #include "gl/gl_segment_list_builder.h"
@@ -95,7 +95,7 @@ void compare_images(GlContext& ctx, const OccupancyTree& tree, const OccupancyGe
   const RayGenerator gen = make_ray_generator(cam, w, h);
   const auto order = build_visibility_order(tree, geometry, view_point(gen));
   SegmentListBuffer cpu, gl;
-  cpu.capacity = gl.capacity = CpuRenderer::kListCapacity;
+  cpu.capacity = gl.capacity = InCoreRenderer::kListCapacity;
   build_segment_lists(geometry, order, gen, cpu);
   GlSegmentListBuilder builder(ctx);
   builder.build_segment_lists(geometry, order, gen, gl);

@@ -1,20 +1,20 @@
-// `--lists gl` through the renderers: CpuRenderer and OutOfCoreRenderer with the GL builder plugged in
+// `--lists gl` through the renderers: InCoreRenderer and OutOfCoreRenderer with the GL builder plugged in
 // (set_list_builder) render the very image they render with their own CPU builder.
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <memory>
 
-#include "cache/generate.h"
+#include "cache/synthetic/generate.h"
 #include "cache/out_of_core.h"
-#include "core/cpu_renderer.h"
+#include "core/in_core_renderer.h"
 #include "gl/gl_segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"
 
 namespace sl {
 namespace {
 
-CpuRenderer::ListBuilder gl_builder(GlContext& ctx) {
+InCoreRenderer::ListBuilder gl_builder(GlContext& ctx) {
   auto b = std::make_shared<GlSegmentListBuilder>(ctx);
   return [b, &ctx](const OccupancyGeometry& g, std::span<const VisibilityEntry> order, const RayGenerator& gen,
                    SegmentListBuffer& out, float eps) {
@@ -31,7 +31,7 @@ std::size_t differing_pixels(const Frame& a, const Frame& b) {
   return n;
 }
 
-TEST(GlListsRenderer, CpuRendererWithGlListsRendersTheCpuListsImage) {
+TEST(GlListsRenderer, InCoreRendererWithGlListsRendersTheCpuListsImage) {
   SL_REQUIRE_GL(ctx);
   GeneratedVolume g = generate_volume("neurites", ivec3(61, 47, 53), 3);
   const TransferFunction tf = default_transfer_function(0.0f, 255.0f);
@@ -44,8 +44,8 @@ TEST(GlListsRenderer, CpuRendererWithGlListsRendersTheCpuListsImage) {
     s.width = 72;
     s.height = 56;
     s.block = 4;
-    CpuRenderer cpu;
-    CpuRenderer gl;
+    InCoreRenderer cpu;
+    InCoreRenderer gl;
     gl.set_list_builder(gl_builder(*ctx));
     const Frame a = cpu.render(scene, s);
     const Frame b = gl.render(scene, s);

@@ -11,7 +11,8 @@
 #include "apps/viewer/render_worker.h"
 #include "apps/viewer/stats_rows.h"
 #include "apps/viewer/view_settings.h"
-#include "cache/generate.h"
+#include "core/in_core_renderer.h"
+#include "cache/synthetic/generate.h"
 
 namespace sl::viewer {
 namespace {
@@ -169,7 +170,7 @@ TEST(DisplayImage, PremultipliedOverBlackSrgbEncodedOpaque) {
 
 TEST(RenderWorker, RendersTheLatestJobAndReportsErrorsWithoutStopping) {
   const GeneratedVolume g = generate_volume("neurites", ivec3(24), 1);
-  CpuRenderer renderer;
+  InCoreRenderer renderer;
   int calls = 0;
   RenderWorker w(&g.intensity, &g.labels, [&](const Scene& s, const RenderSettings& r) {
     ++calls;
@@ -213,7 +214,7 @@ TEST(RenderWorker, RendersTheLatestJobAndReportsErrorsWithoutStopping) {
 
 TEST(RenderWorker, ANewerJobReplacesOneNotYetStarted) {
   const GeneratedVolume g = generate_volume("neurites", ivec3(16), 1);
-  CpuRenderer renderer;
+  InCoreRenderer renderer;
   std::vector<std::uint64_t> rendered;
   auto tf = std::make_shared<const TransferFunction>(default_transfer_function(0.0f, 255.0f));
   std::mutex gate;

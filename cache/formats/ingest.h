@@ -1,0 +1,59 @@
+// `sparseleap ingest`: converting a volume file (NRRD, a TIFF stack, NIfTI-1) into an OME-Zarr store
+// (zarr_writer.h) with the full 2x pyramid of DESIGN.md §3, slab by slab, so memory stays bounded
+// however deep the input is.
+//
+// The input is read one chunk layer (chunk-edge z-planes) at a time. Level l keeps one layer buffer of
+// its own; a full layer is written as chunks and reduced 2x into the next level's buffer (which fills
+// after two such layers). Peak memory is therefore about
+//   (4/3) * chunk * X * Y * bytes_per_voxel      (+ the same for labels, with their voxel size)
+// plus one chunk per worker thread for encoding: memory_bound() computes it. It depends on the slice
+// size X * Y and the chunk edge, never on the depth Z.
+// Levels continue until one chunk holds the level; readers derive coarser ones (zarr_source.h).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "cache/formats/slab_reader.h"
+#include "cache/formats/zarr_codec.h"
+#include "core/volume.h"
+
+namespace sl {
+
+// Chooses the reader by name: .nrrd/.nhdr (raw or gzip), .tif/.tiff (one multipage file) or a
+// directory of .tif/.tiff files (one slice each, sorted by name), .nii/.nii.gz. Throws InputError.
+std::unique_ptr<SlabReader> open_slab_reader(const std::string& path);
+// The NRRD reader, streaming (raw: sequential reads; gzip: inflated as it goes).
+std::unique_ptr<SlabReader> open_nrrd_slabs(const std::string& path);
+
+struct IngestOptions {
+  int chunk = 64;                     // chunk edge; even, 8-512
+  zarr::Compressor compressor = zarr::compressor_from_name("blosc-zstd", -1);
+  std::string labels;                 // optional label volume (same dims, integer type)
+  bool force = false;                 // replace an existing OUT
+  // Called after every input slab with input bytes read so far and in total (intensity + labels).
+  std::function<void(std::uint64_t done, std::uint64_t total)> progress;
+};
+
+struct IngestResult {
+  VolumeDesc desc;
+  int levels = 0;
+  std::uint64_t input_bytes = 0;   // voxel bytes read (intensity + labels)
+  std::uint64_t stored_bytes = 0;  // bytes written into the store (chunks and metadata)
+  std::uint64_t memory_bound = 0;  // memory_bound() for this input
+  std::uint32_t max_label = 0;
+};
+
+// Pyramid levels the store gets: level 0 and halvings until one chunk holds the level.
+int ingest_levels(ivec3 dims, int chunk);
+// Bytes of the layer buffers (see the header comment) plus one encode chunk per thread.
+std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_type, int chunk);
+
+// Writes `out` under a hidden temporary name beside it and renames it only when complete; any failure
+// removes the temporary directory and throws InputError. `out` must not exist unless o.force.
+IngestResult ingest(const std::string& in, const std::string& out, const IngestOptions& o);
+
+}  // namespace sl

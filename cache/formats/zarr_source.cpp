@@ -1,0 +1,176 @@
+#include "cache/formats/zarr_source.h"
+
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <cstring>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "cache/pyramid.h"
+#include "core/error.h"
+
+namespace sl {
+namespace {
+
+// A whole level of a reader, read chunk row by chunk row in parallel.
+Volume read_level(const zarr::ArrayReader& r, int level, const std::string& origin) {
+  const zarr::Level& lv = r.multiscale().levels[std::size_t(level)];
+  VolumeDesc d;
+  d.dims = lv.dims;
+  d.type = lv.meta.type;
+  d.spacing = r.multiscale().desc.spacing * float(1 << level);
+  Volume v(d, origin);
+  const int cz = lv.meta.chunk_dims().z;
+  const int rows = (d.dims.z + cz - 1) / cz;
+  const std::size_t plane = std::size_t(d.dims.x) * std::size_t(d.dims.y) * std::size_t(voxel_size(d.type));
+  tbb::parallel_for(0, rows, [&](int i) {
+    const int z0 = i * cz, nz = std::min(cz, d.dims.z - z0);
+    r.read_box(level, ivec3(0, 0, z0), ivec3(d.dims.x, d.dims.y, nz), v.data() + std::size_t(z0) * plane);
+  });
+  return v;
+}
+
+// Copies level voxels [first, first + n), each coordinate clamped to the dims of `v`, into dst.
+void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst) {
+  const std::size_t elem = std::size_t(voxel_size(v.type()));
+  const ivec3 d = v.dims();
+  for (int z = 0; z < n.z; ++z) {
+    for (int y = 0; y < n.y; ++y) {
+      for (int x = 0; x < n.x; ++x) {
+        const ivec3 s = glm::min(first + ivec3(x, y, z), d - 1);
+        std::memcpy(dst, v.data() + v.view().index(s.x, s.y, s.z) * elem, elem);
+        dst += elem;
+      }
+    }
+  }
+}
+
+// Derived levels: 2x reductions of `base` until 1³.
+std::vector<Volume> derive(const Volume& base, bool labels) {
+  std::vector<Volume> out;
+  const Volume* src = &base;
+  while (src->dims().x > 1 || src->dims().y > 1 || src->dims().z > 1) {
+    VolumeDesc d = src->desc();
+    d.dims = (d.dims + 1) / 2;
+    d.spacing *= 2.0f;
+    Volume dst(d, "pyramid");
+    tbb::parallel_for(tbb::blocked_range<int>(0, d.dims.z), [&](const tbb::blocked_range<int>& r) {
+      (labels ? reduce_mode : reduce_mean)(src->type(), src->data(), src->dims(), dst.data(), r.begin(), r.end());
+    });
+    out.push_back(std::move(dst));
+    src = &out.back();
+  }
+  return out;
+}
+
+std::string mib(std::uint64_t b) { return std::to_string((b + (1 << 19)) >> 20) + " MiB"; }
+
+}  // namespace
+
+ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& labels_path,
+                                   std::size_t chunk_cache_bytes)
+    : name_(path), cache_(std::make_shared<zarr::ChunkCache>(chunk_cache_bytes)) {
+  zarr::StoreInfo info = zarr::open_store(path);
+  image_ = std::make_unique<zarr::ArrayReader>(info.image, path, cache_);
+  std::string labels_store = path;
+  if (!labels_path.empty()) {
+    zarr::StoreInfo li = zarr::open_store(labels_path);
+    if (li.image.desc.dims != info.image.desc.dims) {
+      throw InputError(labels_path, "label store dims differ from the image's (" + path + ")");
+    }
+    if (li.image.desc.type == VoxelType::F32) throw InputError(labels_path, "labels must be of an integer type");
+    labels_ = std::make_unique<zarr::ArrayReader>(li.image, labels_path, cache_);
+    labels_store = labels_path;
+  } else if (info.labels) {
+    labels_ = std::make_unique<zarr::ArrayReader>(*info.labels, path, cache_);
+  }
+  if (labels_) {
+    const auto attrs = labels_->multiscale().dir / ".zattrs";
+    std::ifstream f(attrs);
+    if (f) {
+      try {
+        const nlohmann::json j = nlohmann::json::parse(f);
+        if (j.contains("sparseleap") && j["sparseleap"].contains("max_label")) {
+          max_label_attr_ = j["sparseleap"]["max_label"].get<std::uint32_t>();
+          has_max_label_attr_ = true;
+        }
+      } catch (const nlohmann::json::exception&) {
+        // Checked by open_multiscale already; an odd attribute only loses the shortcut.
+      }
+    }
+  }
+  const auto base = [&](const zarr::ArrayReader& r, const std::string& store) {
+    const int c = r.levels() - 1;
+    const zarr::Level& lv = r.multiscale().levels[std::size_t(c)];
+    VolumeDesc d{lv.dims, vec3(1.0f), lv.meta.type};
+    if (d.byte_size() > kMaxDerivedBaseBytes) {
+      throw InputError(store, zarr::level_name(r.multiscale(), c) + " is the coarsest stored level and holds " +
+                                  mib(d.byte_size()) + "; coarser levels are derived in memory from at most " +
+                                  mib(kMaxDerivedBaseBytes) + " (rewrite the store with `sparseleap ingest` for a "
+                                  "full pyramid)");
+    }
+    return read_level(r, c, store);
+  };
+  derived_ = derive(base(*image_, path), false);
+  if (labels_) derived_labels_ = derive(base(*labels_, labels_store), true);
+}
+
+void ZarrVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                                  std::span<std::byte> out_labels) const {
+  check_request(layout, id, out_intensity, out_labels);
+  const int l = id.level();
+  ivec3 first, n;
+  brick_read_box(layout, id, first, n);
+  std::vector<std::byte> box;
+  const auto one = [&](const zarr::ArrayReader& r, const std::vector<Volume>& derived, std::span<std::byte> out) {
+    const int elem = voxel_size(r.type());
+    box.resize(std::size_t(n.x) * std::size_t(n.y) * std::size_t(n.z) * std::size_t(elem));
+    if (l < r.levels()) {
+      r.read_box(l, first, n, box.data());
+    } else {
+      const std::size_t i = std::size_t(l - r.levels());
+      SL_CHECK(i < derived.size());  // derived levels reach 1³, and the layout never goes further
+      copy_clamped(derived[i], first, n, box.data());
+    }
+    fill_brick(layout, id, box.data(), first, n, elem, out);
+  };
+  one(*image_, derived_, out_intensity);
+  if (!out_labels.empty()) one(*labels_, derived_labels_, out_labels);
+}
+
+std::uint32_t ZarrVolumeSource::max_label() const {
+  if (!labels_) return 0;
+  if (has_max_label_attr_) return max_label_attr_;
+  for (int l = 0; l < labels_->levels(); ++l) {
+    const zarr::Level& lv = labels_->multiscale().levels[std::size_t(l)];
+    if (VolumeDesc{lv.dims, vec3(1.0f), lv.meta.type}.byte_size() <= (std::uint64_t(256) << 20)) {
+      return sl::max_label(read_level(*labels_, l, name_));
+    }
+  }
+  return derived_labels_.empty() ? 0 : sl::max_label(derived_labels_.front());
+}
+
+vec2 ZarrVolumeSource::value_range_estimate() const {
+  for (int l = 0; l < image_->levels(); ++l) {
+    const zarr::Level& lv = image_->multiscale().levels[std::size_t(l)];
+    if (VolumeDesc{lv.dims, vec3(1.0f), lv.meta.type}.byte_size() <= (std::uint64_t(64) << 20)) {
+      return value_range(read_level(*image_, l, name_));
+    }
+  }
+  return value_range(derived_.front());
+}
+
+Volume read_zarr_volume(const std::string& path, bool labels) {
+  zarr::StoreInfo info = zarr::open_store(path);
+  if (labels && !info.labels) throw InputError(path, "store has no labels/ group");
+  const zarr::Multiscale& m = labels ? *info.labels : info.image;
+  validate_desc(m.desc, path);
+  // No caching: each chunk is read exactly once.
+  zarr::ArrayReader r(m, path, std::make_shared<zarr::ChunkCache>(0));
+  Volume v = read_level(r, 0, path);
+  v.set_spacing(m.desc.spacing);
+  return v;
+}
+
+}  // namespace sl

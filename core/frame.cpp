@@ -1,0 +1,42 @@
+#include "core/frame.h"
+
+#include "core/error.h"
+
+namespace sl {
+
+void validate(const Scene& scene, const RenderSettings& s) {
+  if (!scene.volume || scene.volume->empty()) throw InputError("render", "no volume");
+  if (!scene.tf) throw InputError("render", "no transfer function");
+  if (s.width <= 0 || s.height <= 0 || s.width > 16384 || s.height > 16384) {
+    throw InputError("--size", "image size must be between 1x1 and 16384x16384");
+  }
+  if (!(s.step > 0.0f) || s.step > 64.0f) throw InputError("--step", "step must be in (0, 64]");
+  if (scene.labels && scene.labels->dims() != scene.volume->dims()) {
+    throw InputError("--labels", "label volume dims differ from the intensity volume's");
+  }
+  if (s.mode == RenderMode::Labels && !scene.labels) {
+    throw InputError("--mode", "labels mode needs a label volume (--labels)");
+  }
+}
+
+CastParams make_cast_params(const Scene& scene, const RenderSettings& s, LabelSet& label_storage) {
+  const VolumeDesc& d = scene.volume->desc();
+  CastParams p;
+  p.mode = s.mode;
+  p.dt = s.step * d.min_spacing();
+  p.inv_dt = 1.0f / p.dt;
+  p.iso = s.iso;
+  p.ert = s.ert;
+  p.spacing = d.spacing;
+  p.tf = scene.tf->view(s.step);  // α' = 1 − (1 − α)^(dt / min spacing), and dt / min spacing = step
+  const LabelSet* enabled = scene.enabled;
+  if (s.mode == RenderMode::Labels && !enabled) {
+    label_storage = parse_enable_spec("all", max_label(*scene.labels));
+    enabled = &label_storage;
+  }
+  p.label_mask = enabled != nullptr && scene.labels != nullptr && s.mode != RenderMode::Labels;
+  if (enabled) p.labels = enabled->view();
+  return p;
+}
+
+}  // namespace sl

@@ -1,0 +1,50 @@
+// What every backend and front end shares about one frame: the render settings, the in-core scene, the
+// frame (image + stats), their validation and the per-frame cast parameters.
+#pragma once
+
+#include "core/camera.h"
+#include "core/image.h"
+#include "core/labels.h"
+#include "core/raycast.h"
+#include "core/render_mode.h"
+#include "core/stats.h"
+#include "core/transfer_function.h"
+#include "core/volume.h"
+
+namespace sl {
+
+struct RenderSettings {
+  int width = 1024;
+  int height = 1024;
+  RenderMode mode = RenderMode::Dvr;
+  SkipMethod method = SkipMethod::SparseLeap;
+  float step = 0.5f;       // sample distance in units of the smallest voxel spacing
+  float iso = 128.0f;
+  bool ert = false;
+  int block = 16;          // culling block edge in voxels
+  float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
+  bool depth_complexity_view = false;  // image shows segments (or octree nodes) per ray
+  bool boxes_overlay = false;          // draw the occupancy geometry over the image
+};
+
+struct Scene {
+  const Volume* volume = nullptr;
+  const Volume* labels = nullptr;       // optional, same dims
+  const TransferFunction* tf = nullptr;
+  const LabelSet* enabled = nullptr;    // dvr/mip/iso: mask by label when set; labels mode: null = all
+  Camera camera;
+};
+
+struct Frame {
+  Image image;  // RGBA + channels "samples" (and "depth_complexity")
+  Stats stats;
+};
+
+// Validates the scene and settings; InputError names the offending option or file.
+void validate(const Scene& scene, const RenderSettings& settings);
+
+// The per-frame ray-casting parameters every backend uses. `label_storage` holds the enabled set when
+// labels mode has none given (then all labels are enabled); it must outlive the returned params.
+CastParams make_cast_params(const Scene& scene, const RenderSettings& settings, LabelSet& label_storage);
+
+}  // namespace sl
