@@ -18,18 +18,24 @@
 
 namespace sl {
 
+// Which code blends the x-rows: Fast is the SSE path where it applies (x86 hosts, 8- and 16-bit
+// voxels) and the scalar one elsewhere; Scalar is always the scalar twin, the only path on the device.
+// Renderers use Fast; tests/core/sampling_simd_test.cpp checks that both give the same bits
+// (STYLE.md #15).
+enum class TrilerpPath { Fast, Scalar };
+
 // Trilinear blend of 2x2x2 voxels given as four x-rows (row[0] holds x0, row[dx] holds x1; dx is 0 at
 // the last voxel of a row, where clamping repeats the edge). The dense sampler and the brick-slot
 // sampler both blend through this one function, so their results are bit-identical. On x86 hosts the
 // four x-lerps run as one 4-wide SSE operation: lane for lane the same IEEE single-precision
 // subtract, multiply and add as the scalar code (no FMA contraction on this target), so the value is
 // exactly the scalar one; only the instruction count drops.
-template <class T>
+template <TrilerpPath kPath = TrilerpPath::Fast, class T>
 SL_HOST_DEVICE SL_INLINE float trilerp(const T* r00, const T* r01, const T* r10, const T* r11, int dx, float fx,
                                        float fy, float fz) {
   float c00, c01, c10, c11;
 #if SL_SSE_TRILERP
-  if constexpr (sizeof(T) <= 2 && !std::is_floating_point_v<T>) {
+  if constexpr (kPath == TrilerpPath::Fast && sizeof(T) <= 2 && !std::is_floating_point_v<T>) {
     __m128 a, b;
     if (dx == 1) {
       // Each row's pair (x0, x1) is adjacent in memory: four small loads, widened to 32-bit lanes.
@@ -105,7 +111,8 @@ struct DenseGrid {
     return std::uint32_t(data[(std::int64_t(z) * dims.y + y) * std::int64_t(dims.x) + x]);
   }
 
-  // Trilinear sample at world position p.
+  // Trilinear sample at world position p (kPath: see TrilerpPath).
+  template <TrilerpPath kPath = TrilerpPath::Fast>
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p) const {
     vec3 u = p * inv_spacing - 0.5f;  // continuous voxel coordinate, voxel centres at integers
     u = glm::clamp(u, vec3(0.0f), vec3(dims - 1));
@@ -116,8 +123,8 @@ struct DenseGrid {
     const float fx = u.x - float(x0), fy = u.y - float(y0), fz = u.z - float(z0);
     const std::int64_t sx = dims.x, sxy = std::int64_t(dims.x) * dims.y;
     const T* b = data + x0;
-    return trilerp(b + (z0 * sxy + y0 * sx), b + (z0 * sxy + y1 * sx), b + (z1 * sxy + y0 * sx),
-                   b + (z1 * sxy + y1 * sx), dx, fx, fy, fz);
+    return trilerp<kPath>(b + (z0 * sxy + y0 * sx), b + (z0 * sxy + y1 * sx), b + (z1 * sxy + y0 * sx),
+                          b + (z1 * sxy + y1 * sx), dx, fx, fy, fz);
   }
 
   // The voxel containing world position p (nearest-neighbour lookup for labels), clamped.

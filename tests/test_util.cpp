@@ -4,11 +4,18 @@
 
 #include <array>
 #include <cstdio>
+#include <cstdlib>
 #include <fstream>
 #include <sstream>
 #include <sys/wait.h>
 
 namespace sl::test {
+
+bool require_all() {
+  const char* ci = std::getenv("CI");
+  const char* all = std::getenv("SL_REQUIRE_ALL");
+  return (ci && std::string(ci) == "true") || (all && std::string(all) == "1");
+}
 
 std::filesystem::path scratch_dir() {
   const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();

@@ -1,10 +1,17 @@
-// Helpers shared by the test suites: scratch directories and running the sparseleap executable.
+// Helpers shared by the test suites: scratch directories, running the sparseleap executable, and
+// skipping a test that cannot run here (or failing it, under CI).
 #pragma once
+
+#include <gtest/gtest.h>
 
 #include <filesystem>
 #include <string>
 
 namespace sl::test {
+
+// True under CI (CI=true) or with SL_REQUIRE_ALL=1: then every suite must run in full, and a test
+// that cannot run here fails instead of skipping (STYLE.md #14).
+bool require_all();
 
 // A fresh, empty directory under the build tree, named for the current test.
 std::filesystem::path scratch_dir();
@@ -23,3 +30,15 @@ std::string read_text(const std::filesystem::path& p);
 void write_text(const std::filesystem::path& p, const std::string& text);
 
 }  // namespace sl::test
+
+// Ends the calling test because this machine lacks a part it needs, saying which (`reason`, a
+// std::string): a skip on a developer's machine, a failure under CI=true or SL_REQUIRE_ALL=1, so a CI
+// machine missing a package cannot pass without running the suite.
+#define SL_SKIP_OR_FAIL(reason)                                                                  \
+  do {                                                                                           \
+    const std::string sl_skip_reason_ = (reason);                                                \
+    if (::sl::test::require_all()) {                                                             \
+      GTEST_FAIL() << sl_skip_reason_ << " (CI=true or SL_REQUIRE_ALL=1: this test must run here)"; \
+    }                                                                                            \
+    GTEST_SKIP() << sl_skip_reason_;                                                             \
+  } while (0)

@@ -28,7 +28,7 @@ void expect_same_image_with_gl_lists(const std::string& args) {
     unsetenv("ASAN_OPTIONS");
   }
   if (gl.exit_code != 0 && (gl.output.find("--lists") != std::string::npos)) {
-    GTEST_SKIP() << "no GL list builder here: " << gl.output;
+    SL_SKIP_OR_FAIL("no GL list builder here: " + gl.output);
   }
   ASSERT_EQ(gl.exit_code, 0) << gl.output;
   const test::RunResult cpu = test::run_sparseleap(args + " --lists cpu --out " + (dir / "cpu").string());

@@ -157,7 +157,7 @@ TEST(GlContext, WindowedContextBuildsTheSameListsAsTheCpu) {
   std::optional<EnvOverride> display;
   if (!std::getenv("DISPLAY")) {
     xvfb.emplace();
-    if (xvfb->display().empty()) GTEST_SKIP() << "no DISPLAY, and Xvfb could not be started";
+    if (xvfb->display().empty()) SL_SKIP_OR_FAIL("no DISPLAY, and Xvfb could not be started");
     display.emplace("DISPLAY", xvfb->display().c_str());
   }
   {

@@ -1,5 +1,5 @@
 // Helpers of the GL suites: one headless context per process (skipping with the reason when none
-// can be made), random occupancy fixtures on odd grids, cameras, and list comparison.
+// can be made, failing under CI), random occupancy fixtures on odd grids, cameras, and list comparison.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -15,6 +15,7 @@
 #include "core/segment_list.h"
 #include "core/visibility_order.h"
 #include "gl/gl_context.h"
+#include "tests/test_util.h"
 
 namespace sl::test {
 
@@ -39,11 +40,12 @@ inline GlContext* shared_gl_context(std::string* reason = nullptr) {
   return context;
 }
 
-// Skips the calling test, saying why, when there is no GL context; otherwise binds `ctx` to it.
-#define SL_REQUIRE_GL(ctx)                                                  \
-  std::string sl_gl_reason_;                                                \
-  ::sl::GlContext* ctx = ::sl::test::shared_gl_context(&sl_gl_reason_);     \
-  if (!ctx) GTEST_SKIP() << "no OpenGL context: " << sl_gl_reason_;         \
+// Skips the calling test (fails it under CI), saying why, when there is no GL context; otherwise binds
+// `ctx` to it.
+#define SL_REQUIRE_GL(ctx)                                                          \
+  std::string sl_gl_reason_;                                                        \
+  ::sl::GlContext* ctx = ::sl::test::shared_gl_context(&sl_gl_reason_);             \
+  if (!ctx) SL_SKIP_OR_FAIL("no OpenGL context: " + sl_gl_reason_);                 \
   ctx->make_current()
 
 struct GlFixture {

@@ -115,7 +115,7 @@ class ViewerWindow : public ::testing::Test {
   }
 
   void SetUp() override {
-    if (!skip_reason_.empty()) GTEST_SKIP() << skip_reason_;
+    if (!skip_reason_.empty()) SL_SKIP_OR_FAIL(skip_reason_);
     ASSERT_TRUE(start_error_.empty()) << start_error_;
   }
 
@@ -208,7 +208,7 @@ TEST_F(ViewerWindow, OutOfCoreViewStreamsBricksAndConverges) {
 // No window is needed for these: bad input and a missing display are one line and a non-zero exit.
 TEST(ViewerCli, NoDisplayIsOneClearLine) {
 #ifndef SL_HAVE_VIEWER
-  GTEST_SKIP() << "this build has no viewer";
+  SL_SKIP_OR_FAIL("this build has no viewer");
 #endif
   const RunResult r = run_with_display("", "view " + kSmall + " --frames 1");
   EXPECT_EQ(r.exit_code, 1) << r.output;

@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "tests/test_util.h"
+
 namespace sl::test {
 
 inline const char* kPeerPython = "/usr/bin/python3";
@@ -45,11 +47,11 @@ inline std::vector<std::byte> read_bytes(const std::filesystem::path& p) {
 
 }  // namespace sl::test
 
-// Skips (never silently passes) when the python3-zarr peer is missing.
+// Skips (never silently passes; fails under CI) when the python3-zarr peer is missing.
 #define SL_REQUIRE_PYTHON(modules)                                                                   \
   do {                                                                                               \
     if (!::sl::test::python_has(modules)) {                                                          \
-      GTEST_SKIP() << "/usr/bin/python3 cannot import " << (modules)                                 \
-                   << " (install python3-zarr python3-numcodecs python3-tifffile python3-nibabel)"; \
+      SL_SKIP_OR_FAIL("/usr/bin/python3 cannot import " + std::string(modules) +                     \
+                      " (install python3-zarr python3-numcodecs python3-tifffile python3-nibabel)"); \
     }                                                                                                \
   } while (0)
