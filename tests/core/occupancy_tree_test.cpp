@@ -144,9 +144,10 @@ TEST(OccupancyTree, ReclassifyReusesMetadata) {
   const std::uint64_t computed = block_metadata_computations();
   p.tf = &opaque_low;  // a TF change: re-cull from the cached metadata
   const std::vector<C> classes = classify_blocks(table, p);
+  const std::uint64_t revision = t.revision();
   t.reclassify(classes);
   EXPECT_EQ(block_metadata_computations(), computed);  // nothing recomputed
-  EXPECT_EQ(t.reclassify_count(), 1u);
+  EXPECT_NE(t.revision(), revision);                   // geometry and lists built before are stale
   for (std::size_t i = 0; i < g.block_count(); ++i) EXPECT_EQ(t.node(t.find_leaf(g.block_coord(i))).cls, classes[i]);
   EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 0, 0))).cls, C::Empty);
   EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).cls, C::NonEmpty);
@@ -198,25 +199,6 @@ TEST(OccupancyTree, LeastRecentlyUsedSubtreesRetire) {
   EXPECT_EQ(t.node(r).depth, 1);
   EXPECT_EQ(t.node(r).cls, C::Unknown);  // heterogeneous: unknown again, regrows on demand
   EXPECT_EQ(t.node(t.root()).count[int(C::Unknown)], 8u);
-}
-
-TEST(OccupancyTree, LazyReclassifyLeavesCoarseUnknownAlone) {
-  const BlockGrid g = cube_grid(2);
-  OccupancyTree t(g);
-  const std::uint32_t c = t.refine(t.root());
-  const std::uint32_t d = t.refine(c);
-  for (int k = 0; k < 8; ++k) t.set_leaf_class(d + k, C::Empty);
-  t.set_leaf_class(c + 1, C::NonEmpty);
-  t.propagate();
-  int calls = 0;
-  t.reclassify([&](ivec3 b) {
-    ++calls;
-    return b.x == 0 && b.y == 0 && b.z == 0 ? C::NonEmpty : C::Empty;
-  });
-  EXPECT_EQ(calls, 8 + 8);  // the 8 known blocks and the known coarse leaf's 8 blocks, nothing else
-  EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).cls, C::NonEmpty);
-  EXPECT_EQ(t.node(t.find_leaf(ivec3(2, 0, 0))).cls, C::Empty);
-  EXPECT_EQ(t.node(t.find_leaf(ivec3(3, 3, 3))).cls, C::Unknown);
 }
 
 RC_GTEST_PROP(OccupancyTreeProperty, HistogramsMatchTheLeavesBelow, (std::uint64_t seed)) {
