@@ -79,9 +79,10 @@ class OccupancyTree {
   void reclassify(std::span<const OccupancyClass> classes);
   // TF/label change out of core, where classes are known only for the regions rays asked for, each at
   // its level of detail: restart from one UNKNOWN root and set every region with set_region_class in
-  // the order given (coarse before fine, so finer knowledge refines coarser), marking each used in
-  // `frame` (DESIGN.md §5: re-cull from cached metadata, nothing is reloaded). Counts above the
-  // regions are not updated: call propagate().
+  // the order given, coarse before fine (a finer region splits the coarser leaf around it; the other
+  // new children start UNKNOWN and regrow on demand), marking each used in `frame` (DESIGN.md §5:
+  // re-cull from cached metadata, nothing is reloaded). Counts above the regions are not updated:
+  // call propagate().
   void recull(std::span<const RegionClass> regions, std::uint32_t frame);
   // Changed by every edit, and unique across all trees of the process, so a cache keyed on it (the
   // frame pipeline's geometry and lists) never mistakes a rebuilt tree for the one it was built from.
