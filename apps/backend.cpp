@@ -46,7 +46,7 @@ ListSource parse_list_source(const std::string& name) {
   return ListSource::Gl;
 }
 
-InCoreRenderer::ListBuilder make_gl_list_builder() {
+ListBuilder make_gl_list_builder() {
 #ifdef SL_HAVE_GL
   struct Gl {
     std::unique_ptr<GlContext> context;

@@ -25,9 +25,9 @@ Backend choose_backend(const std::string& name, std::string* notice = nullptr);
 enum class ListSource { Cpu, Gl };
 ListSource parse_list_source(const std::string& name);
 
-// A InCoreRenderer::ListBuilder running on a headless GL context made here (InputError naming --lists
+// A ListBuilder running on a headless GL context made here (InputError naming --lists
 // when no context can be made). The function owns the context and the builder.
-InCoreRenderer::ListBuilder make_gl_list_builder();
+ListBuilder make_gl_list_builder();
 
 // The out-of-core cast device of a backend: the CUDA device, or null (the CPU caster).
 std::unique_ptr<CastDevice> make_cast_device(Backend b);

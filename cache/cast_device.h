@@ -113,7 +113,6 @@ struct CastRequest {
 
 struct CastFeedback {
   std::vector<BrickId> misses;            // distinct ids reported this frame (sorted)
-  std::uint32_t dropped = 0;              // inserts lost to a full miss buffer
   std::vector<std::uint32_t> used_slots;  // slots sampled this frame
 };
 

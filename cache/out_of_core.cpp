@@ -7,16 +7,11 @@
 
 #include "core/culling.h"
 #include "core/error.h"
-#include "core/occupancy_geometry.h"
-#include "core/overlay.h"
-#include "core/segment_list_builder.h"
-#include "core/visibility_order.h"
 
 namespace sl {
 
 struct OutOfCoreRenderer::Cull {
   CullParams params;
-  std::uint64_t key = 0;
 };
 
 namespace {
@@ -104,44 +99,36 @@ void OutOfCoreRenderer::map(BrickId id, PageEntry e) {
 
 OutOfCoreRenderer::~OutOfCoreRenderer() = default;
 
-// Culling block (level l, coordinate c) is tree node depth levels() - l covering level-0 blocks
-// [c * 2^l, (c + 1) * 2^l): a node's metadata comes from the level whose culling blocks it matches, so
-// the tree refines exactly as far as the level of detail the rays ask for.
-void OutOfCoreRenderer::set_node(int depth, ivec3 block_lo, OccupancyClass cls) {
-  std::uint32_t n = tree_.root();
-  while (tree_.node(n).depth < depth) {
-    if (tree_.is_leaf(n)) tree_.refine(n);
-    const OccupancyNode& nd = tree_.node(n);
-    const int half = tree_.size_blocks(n) / 2;
-    const int oct = int(block_lo.x >= nd.lo.x + half) | (int(block_lo.y >= nd.lo.y + half) << 1) |
-                    (int(block_lo.z >= nd.lo.z + half) << 2);
-    n = tree_.child(n, oct);
-  }
-  if (tree_.is_leaf(n)) {
-    tree_.set_leaf_class(n, cls);
-  } else {
-    // Finer nodes exist: fill only their UNKNOWN leaves (the finer classes stay).
-    std::vector<std::uint32_t> stack{n};
-    while (!stack.empty()) {
-      const std::uint32_t m = stack.back();
-      stack.pop_back();
-      if (tree_.is_leaf(m)) {
-        if (tree_.node(m).cls == OccupancyClass::Unknown && !tree_.outside(m)) tree_.set_leaf_class(m, cls);
-      } else {
-        for (int o = 0; o < 8; ++o) stack.push_back(tree_.child(m, o));
-      }
-    }
-  }
-  tree_.touch(n, frame_);
+// A node's metadata comes from the level whose culling blocks it matches, so the tree refines exactly
+// as far as the level of detail the rays ask for.
+RegionClass OutOfCoreRenderer::region(int level, ivec3 c, OccupancyClass cls) const {
+  return RegionClass{tree_.levels() - level, c * (1 << level), cls};
+}
+
+void OutOfCoreRenderer::set_region(const RegionClass& r) { tree_.touch(tree_.set_region_class(r), frame_); }
+
+RegionClass OutOfCoreRenderer::culled_region(std::uint64_t key, const BlockMetadata& m, const Cull& cull) const {
+  BrickId id;
+  id.bits = key;
+  return region(id.level(), id.coord(), classify_block(m, cull.params));
 }
 
 void OutOfCoreRenderer::apply_metadata(std::uint64_t key, const BlockMetadata& m, const Cull& cull) {
-  BrickId id;
-  id.bits = key;
-  const int l = id.level();
-  const int depth = tree_.levels() - l;
-  if (depth < 0) return;
-  set_node(depth, id.coord() * (1 << l), classify_block(m, cull.params));
+  const RegionClass r = culled_region(key, m, cull);
+  if (r.depth >= 0) set_region(r);  // (a level coarser than the tree's root has no node)
+}
+
+template <class Fn>
+void OutOfCoreRenderer::for_each_culling_block(BrickId id, Fn&& fn) const {
+  const int per = layout_.brick_size / block_;
+  const ivec3 dims = layout_.dims(id.level());
+  for (int z = 0; z < per; ++z)
+    for (int y = 0; y < per; ++y)
+      for (int x = 0; x < per; ++x) {
+        const ivec3 c = id.coord() * per + ivec3(x, y, z);
+        if (c.x * block_ >= dims.x || c.y * block_ >= dims.y || c.z * block_ >= dims.z) continue;  // outside
+        fn(c);
+      }
 }
 
 std::uint32_t OutOfCoreRenderer::node_for_brick(BrickId id) const {
@@ -149,57 +136,26 @@ std::uint32_t OutOfCoreRenderer::node_for_brick(BrickId id) const {
   const BlockGrid& g = tree_.grid();
   // First level-0 block of the brick: brick origin (level voxels) * 2^level / block.
   const glm::i64vec3 v = glm::i64vec3(layout_.brick_origin(id)) * (std::int64_t(1) << id.level()) / std::int64_t(block_);
-  const ivec3 b = glm::clamp(ivec3(v), ivec3(0), g.blocks - 1);
-  std::uint32_t n = tree_.root();
-  while (!tree_.is_leaf(n) && tree_.node(n).depth < depth) {
-    const OccupancyNode& nd = tree_.node(n);
-    const int half = tree_.size_blocks(n) / 2;
-    n = tree_.child(n, int(b.x >= nd.lo.x + half) | (int(b.y >= nd.lo.y + half) << 1) |
-                           (int(b.z >= nd.lo.z + half) << 2));
-  }
-  return n;
+  return tree_.descend(glm::clamp(ivec3(v), ivec3(0), g.blocks - 1), depth);
 }
 
-// Metadata of the (B / block)³ culling blocks a brick holds, at its level: min/max over each block
-// dilated by one level voxel (the apron supplies the neighbours) and the labels present (DESIGN.md §3).
+// Metadata of the culling blocks a brick holds, at its level (DESIGN.md §3): the apron supplies the
+// neighbours of the dilation, so the brick alone is enough.
 void OutOfCoreRenderer::compute_metadata(const LoadedBrick& b, const Cull& cull) {
   const int l = b.id.level();
-  const int k = block_;
-  const int per = layout_.brick_size / k;
-  const ivec3 dims = layout_.dims(l);
-  const ivec3 origin = layout_.brick_origin(b.id);
-  const int S = layout_.stored_size();
-  const VoxelType vt = source_->desc().type;
+  const ivec3 S(layout_.stored_size());
   const bool labels = source_->has_labels() && !b.labels.empty();
-  const VolumeView iv{b.intensity.data(), ivec3(S), vec3(1.0f), vt};
-  const VolumeView lv{labels ? b.labels.data() : nullptr, ivec3(S), vec3(1.0f), source_->label_type()};
-  for (int sz = 0; sz < per; ++sz)
-    for (int sy = 0; sy < per; ++sy)
-      for (int sx = 0; sx < per; ++sx) {
-        const ivec3 lo = origin + ivec3(sx, sy, sz) * k;
-        if (lo.x >= dims.x || lo.y >= dims.y || lo.z >= dims.z) continue;  // wholly outside the level
-        const ivec3 hi = glm::min(lo + k, dims);
-        const ivec3 a = glm::max(lo - 1, ivec3(0)) - origin + 1;  // stored indices, inclusive
-        const ivec3 e = glm::min(hi, dims - 1) - origin + 1;
-        BlockMetadata m;
-        m.min = 3.4e38f;
-        m.max = -3.4e38f;
-        m.has_labels = labels;
-        m.computed = true;
-        for (int z = a.z; z <= e.z; ++z)
-          for (int y = a.y; y <= e.y; ++y)
-            for (int x = a.x; x <= e.x; ++x) {
-              const float v = iv.value(x, y, z);
-              m.min = std::min(m.min, v);
-              m.max = std::max(m.max, v);
-              if (labels) m.labels.push_back(lv.label(x, y, z));
-            }
-        std::sort(m.labels.begin(), m.labels.end());
-        m.labels.erase(std::unique(m.labels.begin(), m.labels.end()), m.labels.end());
-        const std::uint64_t key = BrickId::pack(l, b.id.coord() * per + ivec3(sx, sy, sz)).bits;
-        apply_metadata(key, m, cull);
-        metadata_[key] = std::move(m);
-      }
+  const VolumeView iv{b.intensity.data(), S, vec3(1.0f), source_->desc().type};
+  const VolumeView lv{labels ? b.labels.data() : nullptr, S, vec3(1.0f), source_->label_type()};
+  const ivec3 first_stored = layout_.brick_origin(b.id) - kBrickApron;
+  for_each_culling_block(b.id, [&](ivec3 c) {
+    BlockMetadata m =
+        compute_block_metadata(iv, labels ? &lv : nullptr, first_stored, layout_.dims(l), c * block_, block_);
+    ++metadata_computed_this_frame_;
+    const std::uint64_t key = BrickId::pack(l, c).bits;
+    apply_metadata(key, m, cull);
+    metadata_[key] = std::move(m);
+  });
 }
 
 void OutOfCoreRenderer::upload(const Cull& cull) {
@@ -207,20 +163,11 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
   for (const BrickFailure& f : batch.failures) {
     // Reported once (the loader never retries a failed brick); rendered as missing from now on.
     std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
-    failures_reported_.push_back(f.reason);
     metadata_pending_.erase(f.id.bits);
     map(f.id, PageEntry::empty());
     // Its region's occupancy can never be known: call it NON_EMPTY (conservative; the data read as
     // missing), so rays stop reporting it and the view can converge.
-    const int per = layout_.brick_size / block_;
-    for (int z = 0; z < per; ++z)
-      for (int y = 0; y < per; ++y)
-        for (int x = 0; x < per; ++x) {
-          const ivec3 c = f.id.coord() * per + ivec3(x, y, z);
-          const ivec3 dims = layout_.dims(f.id.level());
-          if (c.x * block_ >= dims.x || c.y * block_ >= dims.y || c.z * block_ >= dims.z) continue;
-          set_node(tree_.levels() - f.id.level(), c * (1 << f.id.level()), OccupancyClass::NonEmpty);
-        }
+    for_each_culling_block(f.id, [&](ivec3 c) { set_region(region(f.id.level(), c, OccupancyClass::NonEmpty)); });
   }
   for (LoadedBrick& b : batch.bricks) {
     if (metadata_pending_.erase(b.id.bits)) compute_metadata(b, cull);
@@ -268,7 +215,6 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
 void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
   const std::vector<BrickId> ids = misses_.drain();
   std::vector<BrickId> load;
-  const int per = layout_.brick_size / block_;
   for (const BrickId id : ids) {
     if (loader_.failed(id)) continue;
     const std::uint32_t n = node_for_brick(id);
@@ -279,16 +225,10 @@ void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
       // Cached metadata regrows a retired or re-culled region without touching the data.
       bool cached = true;
       std::vector<std::uint64_t> keys;
-      const ivec3 dims = layout_.dims(id.level());
-      for (int z = 0; z < per && cached; ++z)
-        for (int y = 0; y < per && cached; ++y)
-          for (int x = 0; x < per && cached; ++x) {
-            const ivec3 c = id.coord() * per + ivec3(x, y, z);
-            if (c.x * block_ >= dims.x || c.y * block_ >= dims.y || c.z * block_ >= dims.z) continue;
-            const std::uint64_t key = BrickId::pack(id.level(), c).bits;
-            if (!metadata_.count(key)) cached = false;
-            keys.push_back(key);
-          }
+      for_each_culling_block(id, [&](ivec3 c) {
+        keys.push_back(BrickId::pack(id.level(), c).bits);
+        cached = cached && metadata_.count(keys.back()) > 0;
+      });
       if (cached) {
         for (std::uint64_t key : keys) apply_metadata(key, metadata_.at(key), cull);
       } else if (metadata_pending_.insert(id.bits).second) {
@@ -313,7 +253,6 @@ void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
 void OutOfCoreRenderer::recull(const Cull& cull) {
   // Transfer function or labels changed: rebuild the tree from the cached metadata, coarse before fine
   // (nothing is recomputed or reloaded), and forget Empty mappings made under the old culling.
-  tree_ = OccupancyTree(tree_.grid(), OccupancyClass::Unknown);
   std::vector<std::pair<std::uint64_t, const BlockMetadata*>> entries;
   entries.reserve(metadata_.size());
   for (const auto& [key, m] : metadata_) entries.emplace_back(key, &m);
@@ -323,7 +262,13 @@ void OutOfCoreRenderer::recull(const Cull& cull) {
     y.bits = b.first;
     return x.level() != y.level() ? x.level() > y.level() : a.first < b.first;
   });
-  for (const auto& [key, m] : entries) apply_metadata(key, *m, cull);
+  std::vector<RegionClass> regions;
+  regions.reserve(entries.size());
+  for (const auto& [key, m] : entries) {
+    const RegionClass r = culled_region(key, *m, cull);
+    if (r.depth >= 0) regions.push_back(r);
+  }
+  tree_.recull(regions, frame_);
   for (const BrickId id : empty_entries_) {
     if (page_table_.get(id).state() == PageEntry::State::Empty) map(id, PageEntry::unmapped());
   }
@@ -362,13 +307,8 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   }
   if (s.block != block_) throw InputError("--block", "changed after the out-of-core renderer was created");
   const VolumeDesc& d = source_->desc();
-  Frame frame;
-  frame.image = Image(s.width, s.height);
+  Frame frame = begin_frame(s);
   Stats& st = frame.stats;
-  st.width = s.width;
-  st.height = s.height;
-  st.method = to_string(s.method);
-  st.mode = to_string(s.mode);
 
   // Culling inputs; a change re-culls from cached metadata.
   Cull cull;
@@ -391,6 +331,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
 
   const std::uint64_t evictions_before = cache_.evictions();
   loads_this_frame_ = 0;
+  metadata_computed_this_frame_ = 0;
   if (device_memory_) device_->begin_frame();  // last frame's uploads have landed
   upload(cull);
   resolve_misses(cull);
@@ -403,30 +344,15 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   st.time_ms.tree = t.ms();
   st.tree_nodes = tree_.node_count();
   st.metadata_blocks = metadata_.size();
+  st.metadata_computed = metadata_computed_this_frame_;
 
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
   SkipInputs skip;
   skip.method = s.method;
-  SegmentListBuffer lists;
-  OccupancyGeometry geometry;
   if (s.method == SkipMethod::SparseLeap) {
-    t = Timer();
-    geometry = build_occupancy_geometry(tree_);
-    st.boxes = geometry.boxes.size();
-    st.time_ms.geometry = t.ms();
-    t = Timer();
-    const std::vector<VisibilityEntry> order = build_visibility_order(tree_, geometry, view_point(gen));
-    st.time_ms.order = t.ms();
-    t = Timer();
-    lists.reset(s.width, s.height, InCoreRenderer::kListCapacity);
-    const float eps = s.gap_eps * s.step * d.min_spacing();
-    const SegmentListStats ls =
-        list_builder_ ? list_builder_(geometry, order, gen, lists, eps) : build_segment_lists(geometry, order, gen, lists, eps);
-    // (the short-gap threshold stays in level-0 steps: conservative for any coarser grid)
-    st.time_ms.lists = t.ms();
-    st.events = ls.events;
-    st.list_overflows = ls.overflows;
-    skip.lists = lists.view();
+    pipeline_.geometry(tree_, st);
+    // The short-gap threshold stays in level-0 steps: conservative for any coarser grid.
+    skip.lists = pipeline_.lists(tree_, s.method, gen, s.gap_eps * s.step * d.min_spacing(), st);
   }
 
   // Level of detail and the frame's sample grid. One global grid per frame keeps every method's
@@ -447,17 +373,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   const int finest = gen.orthographic ? lod.level_at(0.0f) : lod.level_at(glm::length(nearest - gen.eye));
   const float step = s.step * float(1 << finest);
 
-  CastParams p;
-  p.mode = s.mode;
-  p.dt = step * d.min_spacing();
-  p.inv_dt = 1.0f / p.dt;
-  p.iso = s.iso;
-  p.ert = s.ert;
-  p.spacing = d.spacing;
-  p.tf = scene.tf->view(step);
-  p.label_mask = scene.enabled != nullptr && source_->has_labels() && s.mode != RenderMode::Labels;
-  if (scene.enabled) p.labels = scene.enabled->view();
-  p.lod = lod;
+  const CastParams p = make_cast_params(s, d, *scene.tf, scene.enabled, source_->has_labels(), step, lod);
 
   misses_.clear();
   CastRequest request;
@@ -489,12 +405,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   }
   c.converged_at_frame = converged_at_;
 
-  if (s.depth_complexity_view) {
-    draw_depth_complexity(frame.image, float(st.depth_complexity_min), float(st.depth_complexity_avg),
-                          float(st.depth_complexity_max));
-  }
-  if (s.boxes_overlay && s.method == SkipMethod::SparseLeap) draw_boxes(frame.image, geometry.boxes, gen);
-  st.time_ms.total = total.ms();
+  pipeline_.finish_frame(frame, s, &tree_, gen, total);
   return frame;
 }
 

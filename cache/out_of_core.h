@@ -17,7 +17,7 @@
 #include "cache/page_table.h"
 #include "cache/volume_source.h"
 #include "core/block_metadata.h"
-#include "core/in_core_renderer.h"
+#include "core/frame_pipeline.h"
 #include "core/occupancy_tree.h"
 
 namespace sl {
@@ -62,7 +62,7 @@ class OutOfCoreRenderer {
   void wait_for_loads() { loader_.wait_idle(); }
   const CastDevice& device() const { return *device_; }
   // Builds the SparseLeap lists instead of build_segment_lists (e.g. the GL builder, `--lists gl`).
-  void set_list_builder(InCoreRenderer::ListBuilder builder) { list_builder_ = std::move(builder); }
+  void set_list_builder(ListBuilder builder) { pipeline_.set_list_builder(std::move(builder)); }
   // The host's page-table entry of a brick (tests compare a device's mirror with it).
   PageEntry page_entry(BrickId id) const { return page_table_.get(id); }
   // Slot of the brick cache holding `id`, if resident; the brick in a slot; a slot's usage stamp.
@@ -76,8 +76,15 @@ class OutOfCoreRenderer {
   void upload(const Cull& cull);
   void resolve_misses(const Cull& cull);
   void compute_metadata(const LoadedBrick& b, const Cull& cull);
+  // Culling block c of `level` (a key of metadata_) as a region of the tree: node depth levels() - l
+  // covering level-0 blocks [c * 2^l, (c + 1) * 2^l).
+  RegionClass region(int level, ivec3 c, OccupancyClass cls) const;
+  void set_region(const RegionClass& r);  // sets the class and marks the node used this frame
+  RegionClass culled_region(std::uint64_t key, const BlockMetadata& m, const Cull& cull) const;
   void apply_metadata(std::uint64_t key, const BlockMetadata& m, const Cull& cull);
-  void set_node(int depth, ivec3 block_lo, OccupancyClass cls);
+  // Calls fn(c) for the coordinate c (at the brick's level) of each of the (B / block)³ culling
+  // blocks of brick `id` that start inside its level.
+  template <class Fn> void for_each_culling_block(BrickId id, Fn&& fn) const;
   std::uint32_t node_for_brick(BrickId id) const;
   void recull(const Cull& cull);
   void touch_used_bricks();
@@ -104,9 +111,9 @@ class OutOfCoreRenderer {
   bool converged_ = false;
   int converged_at_ = -1;
   std::uint64_t loads_this_frame_ = 0;
-  std::vector<std::string> failures_reported_;
+  std::uint64_t metadata_computed_this_frame_ = 0;
   std::unique_ptr<CastDevice> device_;
-  InCoreRenderer::ListBuilder list_builder_;
+  FramePipeline pipeline_;
   bool device_memory_ = false;  // the device keeps its own copies (uploads, page-table sync, feedback)
   PageTableUpdate dirty_;       // page-table words changed since the last sync
   std::vector<BrickUpload> uploads_;  // this frame's new resident bricks (device memory)

@@ -107,7 +107,6 @@ void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback&
   cast_virtual_frame(r.params, r.gen, r.vbox, skip, r.frame, view(), frame);
   // Copied back once per frame: the distinct misses and the slots used in this frame.
   fb.misses = misses_->drain();
-  fb.dropped = misses_->dropped();
   fb.used_slots.clear();
   for (std::uint32_t s = 0; s < config_.slot_count; ++s) {
     if (usage_[s] == r.frame) fb.used_slots.push_back(s);

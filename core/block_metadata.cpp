@@ -33,18 +33,18 @@ BlockGrid make_block_grid(ivec3 dims, vec3 spacing, int block) {
   return g;
 }
 
-BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
-                                     const VolumeView* labels, int bx, int by, int bz) {
-  SL_CHECK(intensity.dims == grid.dims);
-  SL_CHECK(!labels || labels->dims == grid.dims);
-  SL_CHECK(grid.inside(ivec3(bx, by, bz)));
+BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeView* labels, ivec3 origin,
+                                     ivec3 dims, ivec3 block_lo, int block) {
   ++g_computations;
   // Dilated by one voxel: a trilinear sample anywhere in the block's world box reads voxels
-  // floor(p / spacing - 0.5) and that + 1, i.e. [b*B - 1, (b+1)*B] per axis (clamped); a nearest-voxel
-  // label lookup floor(p / spacing) stays within the same range even with rounding at the faces.
-  const ivec3 b(bx, by, bz);
-  const ivec3 lo = glm::max(b * grid.block - 1, ivec3(0));
-  const ivec3 hi = glm::min((b + 1) * grid.block + 1, grid.dims);  // exclusive
+  // floor(p / spacing - 0.5) and that + 1, i.e. [lo - 1, lo + block] per axis (clamped); a
+  // nearest-voxel label lookup floor(p / spacing) stays within the same range even with rounding at
+  // the faces. Below, in the views' own coordinates.
+  const ivec3 lo = glm::max(block_lo - 1, ivec3(0)) - origin;
+  const ivec3 hi = glm::min(block_lo + block + 1, dims) - origin;  // exclusive
+  SL_CHECK(glm::all(glm::lessThan(lo, hi)) && glm::all(glm::greaterThanEqual(lo, ivec3(0))) &&
+           glm::all(glm::lessThanEqual(hi, intensity.dims)));
+  SL_CHECK(!labels || labels->dims == intensity.dims);
   BlockMetadata m;
   m.computed = true;
   float vmin = intensity.value(lo.x, lo.y, lo.z);
@@ -79,6 +79,13 @@ BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& in
     m.labels.shrink_to_fit();
   }
   return m;
+}
+
+BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
+                                     const VolumeView* labels, int bx, int by, int bz) {
+  SL_CHECK(intensity.dims == grid.dims);
+  SL_CHECK(grid.inside(ivec3(bx, by, bz)));
+  return compute_block_metadata(intensity, labels, ivec3(0), grid.dims, ivec3(bx, by, bz) * grid.block, grid.block);
 }
 
 BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const VolumeView& intensity,

@@ -70,7 +70,15 @@ struct BlockMetadata {
   bool computed = false;              // false: not yet computed (the lazy out-of-core path)
 };
 
-// Metadata of block (bx, by, bz). `labels` may be null (no label volume). Counts one computation.
+// The one computation of a culling block's metadata, in core and out of core: the block of edge
+// `block` whose first voxel is `lo`, in a volume (or pyramid level) of `dims` voxels, dilated by one
+// voxel and clamped to the volume. The views hold the voxels from volume voxel `origin` on: the whole
+// volume in core (origin 0), a brick with its apron out of core (origin = the apron's first voxel);
+// they must cover the dilated block. `labels` may be null (no label volume). Counts one computation.
+BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeView* labels, ivec3 origin,
+                                     ivec3 dims, ivec3 lo, int block);
+
+// Metadata of block (bx, by, bz) of a whole volume held in `intensity` (and `labels`).
 BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
                                      const VolumeView* labels, int bx, int by, int bz);
 
@@ -86,8 +94,8 @@ struct BlockMetadataTable {
 BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
                                               const VolumeView* labels);
 
-// Number of compute_block_metadata calls so far in this process (tests prove that re-culling for a
-// transfer-function or label change does not recompute metadata).
+// Number of compute_block_metadata calls so far in this process, in core and out of core (tests prove
+// that re-culling for a transfer-function or label change does not recompute metadata).
 std::uint64_t block_metadata_computations();
 
 }  // namespace sl

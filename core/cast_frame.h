@@ -60,13 +60,12 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
     std::uint32_t misses = 0, dc_max = 0, dc_min = 0xFFFFFFFFu;
     for (int y = y0; y < y1; ++y) {
       for (int x = x0; x < x1; ++x) {
-        const Ray ray = gen.ray(x, y);
-        const Interval iv = intersect(ray, vbox);
-        const float t_entry = iv.t0 > 0.0f ? iv.t0 : 0.0f;
-        if (!(iv.t1 > t_entry)) continue;
+        Ray ray;
+        float t_entry, t_exit;
+        if (!pixel_span(gen, vbox, x, y, ray, t_entry, t_exit)) continue;
         const std::size_t i = std::size_t(y) * img.width + x;
         RayAccum acc;
-        const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, iv.t1, acc, misses);
+        const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses);
         img.rgba[i] = caster.resolve(acc);
         samples_ch[i] = float(acc.samples);
         dc_ch[i] = float(dc);
@@ -87,17 +86,16 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
     detail::atomic_max(counters.dc_max, dc_max);
     detail::atomic_min(counters.dc_min, dc_min);
   });
-  Stats& st = frame.stats;
-  st.time_ms.raycast = timer.ms();
-  st.samples = counters.samples;
-  st.useful_samples = counters.useful;
-  st.rays = counters.rays;
-  st.occupancy_misses = counters.misses;
-  if (skip.method != SkipMethod::None && st.rays > 0) {
-    st.depth_complexity_avg = double(counters.dc_sum) / double(st.rays);
-    st.depth_complexity_max = counters.dc_max;
-    st.depth_complexity_min = counters.dc_min.load() == 0xFFFFFFFFu ? 0u : counters.dc_min.load();
-  }
+  frame.stats.time_ms.raycast = timer.ms();
+  CastCounters c;
+  c.samples = counters.samples;
+  c.useful = counters.useful;
+  c.rays = counters.rays;
+  c.misses = counters.misses;
+  c.dc_sum = counters.dc_sum;
+  c.dc_max = counters.dc_max;
+  c.dc_min = counters.dc_min;
+  record_cast_counters(c, skip.method != SkipMethod::None, frame.stats);
 }
 
 }  // namespace sl

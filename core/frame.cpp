@@ -19,24 +19,29 @@ void validate(const Scene& scene, const RenderSettings& s) {
   }
 }
 
-CastParams make_cast_params(const Scene& scene, const RenderSettings& s, LabelSet& label_storage) {
-  const VolumeDesc& d = scene.volume->desc();
+CastParams make_cast_params(const RenderSettings& s, const VolumeDesc& d, const TransferFunction& tf,
+                            const LabelSet* enabled, bool label_volume, float step, const LodParams& lod) {
   CastParams p;
   p.mode = s.mode;
-  p.dt = s.step * d.min_spacing();
+  p.dt = step * d.min_spacing();
   p.inv_dt = 1.0f / p.dt;
   p.iso = s.iso;
   p.ert = s.ert;
   p.spacing = d.spacing;
-  p.tf = scene.tf->view(s.step);  // α' = 1 − (1 − α)^(dt / min spacing), and dt / min spacing = step
+  p.tf = tf.view(step);  // α' = 1 − (1 − α)^(dt / min spacing), and dt / min spacing = step
+  p.label_mask = enabled != nullptr && label_volume && s.mode != RenderMode::Labels;
+  if (enabled) p.labels = enabled->view();
+  p.lod = lod;
+  return p;
+}
+
+CastParams make_cast_params(const Scene& scene, const RenderSettings& s, LabelSet& label_storage) {
   const LabelSet* enabled = scene.enabled;
   if (s.mode == RenderMode::Labels && !enabled) {
     label_storage = parse_enable_spec("all", max_label(*scene.labels));
     enabled = &label_storage;
   }
-  p.label_mask = enabled != nullptr && scene.labels != nullptr && s.mode != RenderMode::Labels;
-  if (enabled) p.labels = enabled->view();
-  return p;
+  return make_cast_params(s, scene.volume->desc(), *scene.tf, enabled, scene.labels != nullptr, s.step);
 }
 
 }  // namespace sl

@@ -43,7 +43,15 @@ struct Frame {
 // Validates the scene and settings; InputError names the offending option or file.
 void validate(const Scene& scene, const RenderSettings& settings);
 
-// The per-frame ray-casting parameters every backend uses. `label_storage` holds the enabled set when
+// The per-frame ray-casting parameters, built here for every renderer and backend. `step`: the sample
+// distance in units of the smallest voxel spacing (the settings' step in core; out of core the step of
+// the frame's finest level, DESIGN.md §8); the transfer function's opacity is corrected for it.
+// `enabled`: the label mask in dvr/mip/iso (applied when `label_volume`), the shown set in labels mode.
+// `lod`: the level-of-detail rule (out of core; in core one level).
+CastParams make_cast_params(const RenderSettings& settings, const VolumeDesc& volume, const TransferFunction& tf,
+                            const LabelSet* enabled, bool label_volume, float step, const LodParams& lod = {});
+
+// In core: the scene's parameters at the settings' step. `label_storage` holds the enabled set when
 // labels mode has none given (then all labels are enabled); it must outlive the returned params.
 CastParams make_cast_params(const Scene& scene, const RenderSettings& settings, LabelSet& label_storage);
 

@@ -1,29 +1,20 @@
 #include "core/in_core_renderer.h"
 
-#include <algorithm>
-#include <atomic>
-#include <cmath>
-#include <cstring>
 #include <optional>
 
 #include "core/block_metadata.h"
 #include "core/cast_frame.h"
 #include "core/culling.h"
 #include "core/error.h"
-#include "core/occupancy_geometry.h"
 #include "core/occupancy_tree.h"
 #include "core/octree_skip.h"
-#include "core/overlay.h"
-#include "core/segment_list_builder.h"
-#include "core/visibility_order.h"
-#include "core/parallel.h"
 #include "core/raycast.h"
 
 namespace sl {
 
-// What persists between frames: metadata (computed once per volume and block size, never for a
-// transfer-function or label change), the occupancy structures (rebuilt when the block classes
-// change), and the segment lists (reused while the view and the geometry are unchanged; DESIGN.md §7).
+// What persists between frames besides the pipeline's geometry and lists: metadata (computed once per
+// volume and block size, never for a transfer-function or label change), the block classes and the
+// tree built from them, and the octree baseline (rebuilt when the classes change).
 struct InCoreRenderer::State {
   const Volume* volume = nullptr;
   const Volume* labels = nullptr;
@@ -31,17 +22,7 @@ struct InCoreRenderer::State {
   std::optional<BlockMetadataTable> metadata;
   std::vector<OccupancyClass> classes;
   std::optional<OccupancyTree> tree;
-  std::optional<OccupancyGeometry> geometry;
   std::optional<SkipOctree> octree;
-  std::vector<OccupancyBox> nonempty_leaves;  // bbox baseline
-  SegmentListBuffer lists;
-  // Key of the lists in `lists`: view, geometry, method and gap threshold they were built for.
-  bool lists_valid = false;
-  RayGenerator lists_gen;
-  std::uint64_t lists_revision = 0;
-  SkipMethod lists_method = SkipMethod::None;
-  float lists_eps = 0.0f;
-  SegmentListStats list_stats;
 };
 
 InCoreRenderer::InCoreRenderer() : state_(std::make_unique<State>()) {}
@@ -80,19 +61,13 @@ void render_labels_typed(const Scene& scene, const RenderSettings& s, const Cast
   }
 }
 
-// Field by field: the struct has padding bytes, which memcmp would compare too.
-bool same_view(const RayGenerator& a, const RayGenerator& b) {
-  return a.eye == b.eye && a.forward == b.forward && a.right == b.right && a.up == b.up && a.half_h == b.half_h &&
-         a.aspect == b.aspect && a.width == b.width && a.height == b.height && a.orthographic == b.orthographic;
-}
-
 }  // namespace
 
-// Builds (or reuses) what the method needs: metadata → block classes → occupancy tree → geometry →
-// visibility order → segment lists (SparseLeap), the min/max octree (octree) or the first-entry /
-// last-exit lists (bbox). Each stage is timed into the frame's stats.
+// Builds (or reuses) what the method needs: metadata → block classes → occupancy tree, then the
+// pipeline's geometry → visibility order → segment lists (SparseLeap) or first-entry / last-exit lists
+// (bbox), or the min/max octree (octree). Each stage is timed into the frame's stats.
 SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSettings& s, const CastParams& p,
-                                         Stats& st) {
+                                            const LabelSet* labels, const RayGenerator& gen, Stats& st) {
   SkipInputs in;
   in.method = s.method;
   if (s.method == SkipMethod::None) return in;
@@ -107,6 +82,7 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
     VolumeView lv;
     if (scene.labels) lv = scene.labels->view();
     S.metadata = compute_all_block_metadata(grid, scene.volume->view(), scene.labels ? &lv : nullptr);
+    st.metadata_computed = S.metadata->blocks.size();
   }
   st.time_ms.metadata = t.ms();
   st.metadata_blocks = S.metadata->blocks.size();
@@ -116,7 +92,7 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   cull.mode = s.mode;
   cull.tf = scene.tf;
   cull.iso = s.iso;
-  cull.enabled = (p.label_mask || s.mode == RenderMode::Labels) ? active_labels_ : nullptr;
+  cull.enabled = (p.label_mask || s.mode == RenderMode::Labels) ? labels : nullptr;
   std::vector<OccupancyClass> classes = classify_blocks(*S.metadata, cull);
   if (!S.tree || classes != S.classes) {
     // A transfer-function or label change lands here: re-cull from cached metadata (DESIGN.md §5).
@@ -126,96 +102,32 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
     } else {
       S.tree = OccupancyTree::from_block_classes(S.metadata->grid, S.classes);
     }
-    S.geometry.reset();
     S.octree.reset();
-    S.nonempty_leaves.clear();
-    S.lists_valid = false;
   }
   st.time_ms.tree = t.ms();
   st.tree_nodes = S.tree->node_count();
 
-  t = Timer();
-  if (!S.geometry) S.geometry = build_occupancy_geometry(*S.tree);
-  st.boxes = S.geometry->boxes.size();
-  st.time_ms.geometry = t.ms();
-
-  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
-  const float eps = s.gap_eps * p.dt;
-  switch (s.method) {
-    case SkipMethod::Octree: {
-      t = Timer();
-      if (!S.octree) S.octree.emplace(S.metadata->grid, S.classes);
-      st.time_ms.tree += t.ms();
-      in.octree = S.octree->view();
-      break;
-    }
-    case SkipMethod::BBox:
-    case SkipMethod::SparseLeap: {
-      const bool reuse = S.lists_valid && S.lists_method == s.method && S.lists_eps == eps &&
-                         S.lists_revision == S.tree->revision() && same_view(S.lists_gen, gen);
-      if (!reuse) {
-        if (s.method == SkipMethod::SparseLeap) {
-          t = Timer();
-          const std::vector<VisibilityEntry> order = build_visibility_order(*S.tree, *S.geometry, view_point(gen));
-          st.time_ms.order = t.ms();
-          t = Timer();
-          S.lists.reset(s.width, s.height, kListCapacity);
-          S.list_stats = list_builder_ ? list_builder_(*S.geometry, order, gen, S.lists, eps)
-                                       : build_segment_lists(*S.geometry, order, gen, S.lists, eps);
-          st.time_ms.lists = t.ms();
-        } else {
-          t = Timer();
-          if (S.nonempty_leaves.empty()) {
-            for (const OccupancyBox& b : leaf_boxes(*S.tree)) {
-              if (b.cls != OccupancyClass::Empty) S.nonempty_leaves.push_back(b);
-            }
-          }
-          S.list_stats = build_bbox_lists(S.nonempty_leaves, gen, S.lists);
-          st.time_ms.lists = t.ms();
-        }
-        S.lists_valid = true;
-        S.lists_method = s.method;
-        S.lists_eps = eps;
-        S.lists_revision = S.tree->revision();
-        S.lists_gen = gen;
-      }
-      st.events = S.list_stats.events;
-      st.list_overflows = S.list_stats.overflows;
-      in.lists = S.lists.view();
-      break;
-    }
-    case SkipMethod::None: break;
+  pipeline_.geometry(*S.tree, st);
+  if (s.method == SkipMethod::Octree) {
+    t = Timer();
+    if (!S.octree) S.octree.emplace(S.metadata->grid, S.classes);
+    st.time_ms.tree += t.ms();
+    in.octree = S.octree->view();
+  } else {
+    in.lists = pipeline_.lists(*S.tree, s.method, gen, s.gap_eps * p.dt, st);
   }
   return in;
-}
-
-void InCoreRenderer::invalidate_lists() { state_->lists_valid = false; }
-
-void InCoreRenderer::set_list_builder(ListBuilder builder) {
-  list_builder_ = std::move(builder);
-  state_->lists_valid = false;
-}
-
-void InCoreRenderer::set_caster(Caster caster) { caster_ = std::move(caster); }
-
-const OccupancyGeometry* InCoreRenderer::geometry() const {
-  return state_->geometry ? &*state_->geometry : nullptr;
 }
 
 Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {
   validate(scene, s);
   Timer total;
-  Frame frame;
-  frame.image = Image(s.width, s.height);
-  frame.stats.width = s.width;
-  frame.stats.height = s.height;
-  frame.stats.method = to_string(s.method);
-  frame.stats.mode = to_string(s.mode);
-
+  Frame frame = begin_frame(s);
   LabelSet label_storage;
   const CastParams p = make_cast_params(scene, s, label_storage);
-  active_labels_ = scene.enabled ? scene.enabled : (s.mode == RenderMode::Labels ? &label_storage : nullptr);
-  const SkipInputs skip = prepare_skipping(scene, s, p, frame.stats);
+  const LabelSet* labels = scene.enabled ? scene.enabled : (s.mode == RenderMode::Labels ? &label_storage : nullptr);
+  const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
+  const SkipInputs skip = prepare_skipping(scene, s, p, labels, gen, frame.stats);
 
   if (caster_) {
     caster_(scene, s, p, skip, frame);
@@ -227,15 +139,7 @@ Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {
       case VoxelType::F32: render_labels_typed<float>(scene, s, p, skip, frame); break;
     }
   }
-  if (s.depth_complexity_view) {
-    draw_depth_complexity(frame.image, float(frame.stats.depth_complexity_min),
-                          float(frame.stats.depth_complexity_avg), float(frame.stats.depth_complexity_max));
-  }
-  if (s.boxes_overlay && state_->geometry) {
-    draw_boxes(frame.image, state_->geometry->boxes, make_ray_generator(scene.camera, s.width, s.height));
-  }
-  active_labels_ = nullptr;
-  frame.stats.time_ms.total = total.ms();
+  pipeline_.finish_frame(frame, s, state_->tree ? &*state_->tree : nullptr, gen, total);
   return frame;
 }
 

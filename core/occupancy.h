@@ -13,8 +13,6 @@ enum class OccupancyClass : std::uint8_t { Empty = 0, NonEmpty = 1, Unknown = 2,
 
 inline constexpr int kOccupancyClassCount = 3;  // classes counted in an occupancy histogram
 
-SL_HOST_DEVICE inline constexpr int class_index(OccupancyClass c) { return int(c); }
-
 // Classes a ray must sample (Alg. 6: non-empty and unknown segments are sampled).
 SL_HOST_DEVICE inline constexpr bool needs_sampling(OccupancyClass c) {
   return c == OccupancyClass::NonEmpty || c == OccupancyClass::Unknown;

@@ -1,10 +1,15 @@
 #include "core/occupancy_tree.h"
 
 #include <algorithm>
+#include <atomic>
+#include <type_traits>
 
 namespace sl {
 
 namespace {
+
+// Revisions come from one counter for all trees (see revision()).
+std::atomic<std::uint64_t> g_revision{0};
 
 int levels_for(const BlockGrid& g) {
   const int m = std::max(g.blocks.x, std::max(g.blocks.y, g.blocks.z));
@@ -31,22 +36,12 @@ OccupancyTree OccupancyTree::from_block_classes(const BlockGrid& grid, std::span
 }
 
 void OccupancyTree::reclassify(std::span<const OccupancyClass> classes) {
-  const std::uint64_t n = reclassify_count_, r = revision_;
   *this = from_block_classes(grid_, classes);
-  reclassify_count_ = n + 1;
-  revision_ = r + 1;
 }
 
-void OccupancyTree::reclassify(const BlockClassifier& classify) {
-  std::vector<std::uint32_t> known;
-  for_each_leaf(0, [&](std::uint32_t i) {
-    if (nodes_[i].cls != OccupancyClass::Unknown || nodes_[i].depth == levels_) known.push_back(i);
-  });
-  for (std::uint32_t i : known) build(i, classify);
-  propagate();
-  collapse_homogeneous();
-  ++reclassify_count_;
-  ++revision_;
+void OccupancyTree::recull(std::span<const RegionClass> regions, std::uint32_t frame) {
+  *this = OccupancyTree(grid_, OccupancyClass::Unknown);
+  for (const RegionClass& r : regions) touch(set_region_class(r), frame);
 }
 
 std::size_t OccupancyTree::leaf_count() const {
@@ -84,15 +79,47 @@ vec3 OccupancyTree::node_center(std::uint32_t i) const {
               0.5f * float(c.z) * grid_.spacing.z);
 }
 
-std::uint32_t OccupancyTree::find_leaf(ivec3 block) const {
-  std::uint32_t i = 0;
-  while (!is_leaf(i)) {
-    const int h = size_blocks(i) / 2;
-    const ivec3 c = nodes_[i].lo + h;
-    i = child(i, (block.x >= c.x ? 1 : 0) | (block.y >= c.y ? 2 : 0) | (block.z >= c.z ? 4 : 0));
+template <class Tree>
+std::uint32_t OccupancyTree::descend_impl(Tree& t, ivec3 block, int depth) {
+  std::uint32_t i = t.root();
+  while (t.nodes_[i].depth < depth) {
+    if (t.is_leaf(i)) {
+      if constexpr (std::is_const_v<Tree>) {
+        break;
+      } else {
+        t.refine(i);
+      }
+    }
+    const ivec3 c = t.nodes_[i].lo + t.size_blocks(i) / 2;
+    i = t.child(i, (block.x >= c.x ? 1 : 0) | (block.y >= c.y ? 2 : 0) | (block.z >= c.z ? 4 : 0));
   }
   return i;
 }
+
+std::uint32_t OccupancyTree::descend(ivec3 block, int depth) const { return descend_impl(*this, block, depth); }
+
+std::uint32_t OccupancyTree::descend_refining(ivec3 block, int depth) { return descend_impl(*this, block, depth); }
+
+std::uint32_t OccupancyTree::set_region_class(const RegionClass& r) {
+  const std::uint32_t n = descend_refining(r.block, r.depth);
+  if (is_leaf(n)) {
+    set_leaf_class(n, r.cls);
+    return n;
+  }
+  std::vector<std::uint32_t> stack{n};
+  while (!stack.empty()) {
+    const std::uint32_t m = stack.back();
+    stack.pop_back();
+    if (is_leaf(m)) {
+      if (nodes_[m].cls == OccupancyClass::Unknown && !outside(m)) set_leaf_class(m, r.cls);
+    } else {
+      for (int o = 0; o < 8; ++o) stack.push_back(child(m, o));
+    }
+  }
+  return n;
+}
+
+void OccupancyTree::bump_revision() { revision_ = g_revision.fetch_add(1, std::memory_order_relaxed) + 1; }
 
 std::uint32_t OccupancyTree::alloc_group() {
   if (!free_groups_.empty()) {
@@ -117,7 +144,7 @@ void OccupancyTree::free_subtree_children(std::uint32_t node) {
 
 std::uint32_t OccupancyTree::refine(std::uint32_t leaf) {
   SL_CHECK(is_leaf(leaf) && nodes_[leaf].depth < levels_);
-  ++revision_;
+  bump_revision();
   const std::uint32_t c = alloc_group();  // may reallocate nodes_: index, do not hold references
   const int h = size_blocks(leaf) / 2;
   for (int k = 0; k < 8; ++k) {
@@ -135,7 +162,7 @@ std::uint32_t OccupancyTree::refine(std::uint32_t leaf) {
 
 void OccupancyTree::set_leaf_class(std::uint32_t leaf, OccupancyClass c) {
   SL_CHECK(is_leaf(leaf) && c != OccupancyClass::Invalid);
-  ++revision_;
+  bump_revision();
   OccupancyNode& n = nodes_[leaf];
   n.cls = c;
   // A leaf counts for all the blocks it covers; the part outside the volume counts EMPTY (DESIGN §5).
@@ -162,12 +189,12 @@ void OccupancyTree::propagate_rec(std::uint32_t node) {
 }
 
 void OccupancyTree::propagate() {
-  ++revision_;
+  bump_revision();
   propagate_rec(0);
 }
 
 void OccupancyTree::propagate_up(std::uint32_t node) {
-  ++revision_;
+  bump_revision();
   for (std::uint32_t i = node; i != kNone; i = nodes_[i].parent) {
     if (!is_leaf(i)) sum_children(i);
   }
@@ -190,7 +217,7 @@ bool OccupancyTree::homogeneous(std::uint32_t node, OccupancyClass& c) const {
 }
 
 void OccupancyTree::make_leaf(std::uint32_t node, OccupancyClass c) {
-  ++revision_;
+  bump_revision();
   free_subtree_children(node);
   set_leaf_class(node, c);
 }

@@ -54,6 +54,14 @@ SL_HOST_DEVICE inline OccupancyClass conservative_class(const std::uint64_t coun
   return OccupancyClass::Empty;
 }
 
+// The class culling gave one region of the tree: the node at `depth` covering level-0 block `block`
+// (out of core: a culling block of pyramid level l is the node at depth levels() - l).
+struct RegionClass {
+  int depth = 0;
+  ivec3 block{0, 0, 0};
+  OccupancyClass cls = OccupancyClass::Unknown;
+};
+
 class OccupancyTree {
  public:
   static constexpr std::uint32_t kNone = 0xFFFFFFFFu;
@@ -66,14 +74,19 @@ class OccupancyTree {
   // Full tree from one class per block (block_index order), homogeneous subtrees collapsed.
   static OccupancyTree from_block_classes(const BlockGrid& grid, std::span<const OccupancyClass> classes);
 
-  // TF/label change: rebuild from new per-block classes (made from the cached metadata by
+  // TF/label change in core: rebuild from new per-block classes (made from the cached metadata by
   // classify_blocks; no metadata is recomputed here).
   void reclassify(std::span<const OccupancyClass> classes);
-  // Lazy variant: re-culls every known region (leaves that are not UNKNOWN, and block-level leaves)
-  // with `classify`, leaving coarse UNKNOWN leaves to regrow on demand; then propagates and collapses.
-  void reclassify(const BlockClassifier& classify);
-  std::uint64_t reclassify_count() const { return reclassify_count_; }
-  // Bumped by every edit; geometry built from the tree records it (stale geometry is an error).
+  // TF/label change out of core, where classes are known only for the regions rays asked for, each at
+  // its level of detail: restart from one UNKNOWN root and set every region with set_region_class in
+  // the order given, coarse before fine (a finer region splits the coarser leaf around it; the other
+  // new children start UNKNOWN and regrow on demand), marking each used in `frame` (DESIGN.md §5:
+  // re-cull from cached metadata, nothing is reloaded). Counts above the regions are not updated:
+  // call propagate().
+  void recull(std::span<const RegionClass> regions, std::uint32_t frame);
+  // Changed by every edit, and unique across all trees of the process, so a cache keyed on it (the
+  // frame pipeline's geometry and lists) never mistakes a rebuilt tree for the one it was built from.
+  // Geometry built from the tree records it (stale geometry is an error).
   std::uint64_t revision() const { return revision_; }
 
   const BlockGrid& grid() const { return grid_; }
@@ -93,13 +106,23 @@ class OccupancyTree {
   Box3 node_box(std::uint32_t i) const;     // world box, not clipped (split planes at its centre)
   Box3 clipped_box(std::uint32_t i) const;  // world box clipped to the volume box
   vec3 node_center(std::uint32_t i) const;
-  std::uint32_t find_leaf(ivec3 block) const;  // leaf covering a block
+  // The one descent of the tree (octant of the block against each node's centre): the node at `depth`
+  // covering `block`, or the leaf above it where the tree is coarser.
+  std::uint32_t descend(ivec3 block, int depth) const;
+  std::uint32_t find_leaf(ivec3 block) const { return descend(block, levels_); }  // leaf covering a block
 
   // --- editing (lazy growth, tests) ---
   // Splits a leaf into 8 children: UNKNOWN, or EMPTY where wholly outside the volume. Returns the
   // first child. Counts above are not updated: call propagate_up(leaf) or propagate().
   std::uint32_t refine(std::uint32_t leaf);
   void set_leaf_class(std::uint32_t leaf, OccupancyClass c);  // sets its counts, not its ancestors'
+  // As descend, but refines leaves on the way, so the node returned is at `depth` (lazy growth, §8.2).
+  std::uint32_t descend_refining(ivec3 block, int depth);
+  // Culling result for a region (lazy growth, paper §8.2): the node at region.depth covering
+  // region.block, reached with descend_refining. A leaf takes the class; where finer nodes exist, only
+  // their UNKNOWN leaves inside the volume take it (what is known finer stays). Counts above are not
+  // updated. Returns the node.
+  std::uint32_t set_region_class(const RegionClass& region);
   void propagate();                                            // Alg. 1 over the whole tree
   void propagate_up(std::uint32_t node);                       // Alg. 1 on the path to the root
   // If the subtree of `node` is homogeneous (all its blocks inside the volume of one class), turns it
@@ -122,12 +145,13 @@ class OccupancyTree {
   void collapse_rec(std::uint32_t node);
   void retire_rec(std::uint32_t node, std::uint32_t frame, std::uint32_t max_age);
   template <class Fn> void for_each_leaf(std::uint32_t node, Fn&& fn) const;
+  void bump_revision();
+  template <class Tree> static std::uint32_t descend_impl(Tree& tree, ivec3 block, int depth);
 
   BlockGrid grid_;
   int levels_ = 0;
   std::vector<OccupancyNode> nodes_;
   std::vector<std::uint32_t> free_groups_;
-  std::uint64_t reclassify_count_ = 0;
   std::uint64_t revision_ = 0;
 };
 

@@ -29,8 +29,6 @@ inline constexpr std::uint32_t kMaxEvents = 64;            // per-pixel capacity
 inline constexpr std::uint32_t kListOverflow = 0x80000000u;  // flag bit in a list's count word
 inline constexpr std::uint32_t kListCountMask = 0x7FFFFFFFu;
 
-SL_HOST_DEVICE inline OccupancyClass event_class(const RayEvent& e) { return OccupancyClass(e.cls); }
-
 namespace detail {
 
 SL_HOST_DEVICE inline RayEvent make_event(float t, EventType type, OccupancyClass cls) {

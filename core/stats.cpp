@@ -5,6 +5,18 @@
 
 namespace sl {
 
+void record_cast_counters(const CastCounters& c, bool skipping, Stats& st) {
+  st.samples = c.samples;
+  st.useful_samples = c.useful;
+  st.rays = c.rays;
+  st.occupancy_misses = c.misses;
+  if (skipping && st.rays > 0) {
+    st.depth_complexity_avg = double(c.dc_sum) / double(st.rays);
+    st.depth_complexity_max = c.dc_max;
+    st.depth_complexity_min = c.dc_min == 0xFFFFFFFFu ? 0u : c.dc_min;
+  }
+}
+
 std::string stats_to_json(const Stats& s) {
   nlohmann::json j;
   j["width"] = s.width;
@@ -24,6 +36,7 @@ std::string stats_to_json(const Stats& s) {
   j["occupancy_misses"] = s.occupancy_misses;
   j["list_overflows"] = s.list_overflows;
   j["metadata_blocks"] = s.metadata_blocks;
+  j["metadata_computed"] = s.metadata_computed;
   j["tree"] = {{"nodes", s.tree_nodes}};
   j["depth_complexity"] = {{"avg", s.depth_complexity_avg}, {"max", s.depth_complexity_max}, {"min", s.depth_complexity_min}};
   if (s.cache.present) {

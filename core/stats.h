@@ -41,12 +41,24 @@ struct Stats {
   std::uint64_t occupancy_misses = 0;   // UNKNOWN segments sampled
   std::uint64_t list_overflows = 0;     // pixels whose list hit its capacity
   std::uint64_t metadata_blocks = 0;    // blocks whose metadata exists
+  std::uint64_t metadata_computed = 0;  // blocks whose metadata was computed this frame (in or out of core)
   std::uint64_t tree_nodes = 0;
   double depth_complexity_avg = 0;      // segments (SparseLeap) / nodes (octree) per ray
   std::uint32_t depth_complexity_max = 0;
   std::uint32_t depth_complexity_min = 0;
   CacheStats cache;
 };
+
+// A frame's ray-casting counters, as the CPU tile loop (core/cast_frame.h) and the CUDA kernels
+// (cuda/cast_kernels.cuh) sum them over its pixels.
+struct CastCounters {
+  std::uint64_t samples = 0, useful = 0, rays = 0, misses = 0, dc_sum = 0;
+  std::uint32_t dc_max = 0, dc_min = 0xFFFFFFFFu;
+};
+
+// The one place the ray-casting part of Stats is filled from the counters, for every backend. Depth
+// complexity only with skipping (segments or octree nodes per ray; no skipping has none).
+void record_cast_counters(const CastCounters& c, bool skipping, Stats& st);
 
 std::string stats_to_json(const Stats& s);
 // One line for people: size, backend, method, milliseconds, samples.

@@ -4,15 +4,18 @@
 //   sl_cast_none           no skipping
 //   sl_cast_octree         kd-restart over the min/max octree (SkipOctreeView::step)
 //   sl_cast_segment_lists  Alg. 6 over the per-pixel segment lists (sparseleap and bbox)
-// Counters are reduced per warp, then one atomic per warp.
+// Counters are reduced per warp, then one atomic per warp. Also the per-frame device buffers every
+// caster uses: its inputs (FrameInputs) and its outputs (DeviceFrame).
 #pragma once
 
 #include <cuda_runtime.h>
 
 #include <cstdint>
+#include <vector>
 
 #include "core/cast_pixel.h"
 #include "core/frame.h"
+#include "core/octree_skip.h"
 #include "core/stats.h"
 #include "cuda/cuda_util.h"
 
@@ -131,25 +134,73 @@ class DeviceFrame {
     samples_.download(img.channel("samples").data(), n, stream);
     dc_.download(img.channel("depth_complexity").data(), n, stream);
     if (depth) depth_.download(img.channel("depth").data(), n, stream);
-    DeviceCounters c;
-    counters_.download(&c, 1, stream);
+    DeviceCounters d;
+    counters_.download(&d, 1, stream);
     check(cudaStreamSynchronize(stream), "ray casting");
-    Stats& st = frame.stats;
-    st.samples = c.samples;
-    st.useful_samples = c.useful;
-    st.rays = c.rays;
-    st.occupancy_misses = c.misses;
-    if (method != SkipMethod::None && st.rays > 0) {
-      st.depth_complexity_avg = double(c.dc_sum) / double(st.rays);
-      st.depth_complexity_max = c.dc_max;
-      st.depth_complexity_min = c.dc_min == 0xFFFFFFFFu ? 0u : c.dc_min;
-    }
+    CastCounters c;
+    c.samples = d.samples;
+    c.useful = d.useful;
+    c.rays = d.rays;
+    c.misses = d.misses;
+    c.dc_sum = d.dc_sum;
+    c.dc_max = d.dc_max;
+    c.dc_min = d.dc_min;
+    record_cast_counters(c, method != SkipMethod::None, frame.stats);
   }
 
  private:
   DeviceBuffer<vec4> rgba_;
   DeviceBuffer<float> samples_, dc_, depth_;
   DeviceBuffer<DeviceCounters> counters_;
+};
+
+// The per-frame inputs of a cast, uploaded here for the in-core and the out-of-core caster alike: the
+// transfer-function table, the enabled-label bits and the skipping structures (segment lists; the
+// octree in core), into buffers kept between frames.
+class FrameInputs {
+ public:
+  // Uploads what `p` and `skip` point to and repoints them at the device copies.
+  void upload(CastParams& p, SkipInputs& skip, cudaStream_t stream) {
+    tf_.upload(p.tf.table, std::size_t(p.tf.size), stream);
+    p.tf.table = tf_.get();
+    if (p.labels.bits) {
+      bits_.upload(p.labels.bits, (p.labels.size + 31) / 32, stream);
+      p.labels.bits = bits_.get();
+    }
+    if (skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) {
+      const SegmentListView& v = skip.lists;
+      const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
+      events_.upload(v.events, pixels * v.capacity, stream);
+      counts_.upload(v.counts, pixels, stream);
+      skip.lists.events = events_.get();
+      skip.lists.counts = counts_.get();
+    } else if (skip.method == SkipMethod::Octree) {
+      nodes_.upload(skip.octree.nodes, node_count(skip.octree), stream);
+      skip.octree.nodes = nodes_.get();
+    }
+  }
+
+ private:
+  // Nodes reachable from the root (the view carries no size): children blocks are contiguous.
+  static std::size_t node_count(const SkipOctreeView& v) {
+    if (!v.nodes) return 0;
+    std::size_t n = 1;
+    std::vector<std::uint32_t> stack{0};
+    while (!stack.empty()) {
+      const std::uint32_t i = stack.back();
+      stack.pop_back();
+      const std::uint32_t c = v.nodes[i].children;
+      if (c == SkipOctreeView::kNone) continue;
+      n = std::max<std::size_t>(n, std::size_t(c) + 8);
+      for (std::uint32_t k = 0; k < 8; ++k) stack.push_back(c + k);
+    }
+    return n;
+  }
+
+  DeviceBuffer<vec4> tf_;
+  DeviceBuffer<std::uint32_t> bits_, counts_;
+  DeviceBuffer<RayEvent> events_;
+  DeviceBuffer<SkipOctreeNode> nodes_;
 };
 
 // Launches the method's kernel. kOctree = false leaves the octree kernel out (the out-of-core path

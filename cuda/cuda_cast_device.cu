@@ -120,21 +120,8 @@ class CudaCastDevice final : public CastDevice {
     check(cudaMemsetAsync(miss_table_.get(), 0, table_size_ * sizeof(std::uint64_t), compute_), "cudaMemset");
     check(cudaMemsetAsync(miss_counters_.get(), 0, 2 * sizeof(std::uint32_t), compute_), "cudaMemset");
     CastParams p = r.params;
-    tf_.upload(p.tf.table, std::size_t(p.tf.size), compute_);
-    p.tf.table = tf_.get();
-    if (p.labels.bits) {
-      bits_.upload(p.labels.bits, (p.labels.size + 31) / 32, compute_);
-      p.labels.bits = bits_.get();
-    }
     SkipInputs skip = r.skip;
-    if (skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) {
-      const SegmentListView& v = r.skip.lists;
-      const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
-      events_.upload(v.events, pixels * v.capacity, compute_);
-      counts_.upload(v.counts, pixels, compute_);
-      skip.lists.events = events_.get();
-      skip.lists.counts = counts_.get();
-    }
+    inputs_.upload(p, skip, compute_);  // transfer-function table, enabled labels, segment lists
     const bool iso = p.mode == RenderMode::Iso;
     const FrameOutputs out = frame_.prepare(r.gen.width, r.gen.height, iso, compute_);
     switch (config_.voxel_type) {
@@ -145,10 +132,10 @@ class CudaCastDevice final : public CastDevice {
     }
     frame_.finish(frame, skip.method, iso, compute_);  // synchronises the compute stream
     // Copied back once per frame: the miss list and the usage stamps.
-    std::uint32_t counters[2] = {0, 0};
-    miss_counters_.download(counters, 2, compute_);
+    std::uint32_t claimed = 0;  // ids claimed (may exceed the capacity: the rest were dropped)
+    miss_counters_.download(&claimed, 1, compute_);
     check(cudaStreamSynchronize(compute_), "miss counters");
-    const std::uint32_t n = std::min(counters[0], config_.miss_capacity);
+    const std::uint32_t n = std::min(claimed, config_.miss_capacity);
     std::vector<std::uint64_t> ids(n);
     miss_list_.download(ids.data(), n, compute_);
     usage_.download(usage_host_.data(), config_.slot_count, compute_);
@@ -156,7 +143,6 @@ class CudaCastDevice final : public CastDevice {
     fb.misses.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) fb.misses[i].bits = ids[i];
     std::sort(fb.misses.begin(), fb.misses.end());
-    fb.dropped = counters[1];
     fb.used_slots.clear();
     for (std::uint32_t s = 0; s < config_.slot_count; ++s) {
       if (usage_host_[s] == r.frame) fb.used_slots.push_back(s);
@@ -287,10 +273,9 @@ class CudaCastDevice final : public CastDevice {
   float scale_ = 1.0f;
   DeviceBuffer<BrickLayout> layout_;
   DeviceBuffer<std::byte> voxels_, labels_;
-  DeviceBuffer<std::uint32_t> usage_, directory_, pool_, miss_counters_, bits_, counts_, scatter_value_;
+  DeviceBuffer<std::uint32_t> usage_, directory_, pool_, miss_counters_, scatter_value_;
   DeviceBuffer<std::uint64_t> miss_table_, miss_list_, scatter_index_;
-  DeviceBuffer<vec4> tf_;
-  DeviceBuffer<RayEvent> events_;
+  FrameInputs inputs_;
   std::uint64_t pool_words_ = 0;
   std::uint32_t table_size_ = 0;
   PinnedBuffer staging_;

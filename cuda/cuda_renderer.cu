@@ -8,7 +8,6 @@
 
 #include <cstdint>
 #include <memory>
-#include <vector>
 
 #include "core/error.h"
 #include "core/stats.h"
@@ -17,32 +16,6 @@
 
 namespace sl::cuda {
 namespace {
-
-// Nodes reachable from the root (the view carries no size): children blocks are contiguous.
-std::size_t octree_node_count(const SkipOctreeView& v) {
-  if (!v.nodes) return 0;
-  std::size_t n = 1;
-  std::vector<std::uint32_t> stack{0};
-  while (!stack.empty()) {
-    const std::uint32_t i = stack.back();
-    stack.pop_back();
-    const std::uint32_t c = v.nodes[i].children;
-    if (c == SkipOctreeView::kNone) continue;
-    n = std::max<std::size_t>(n, std::size_t(c) + 8);
-    for (std::uint32_t k = 0; k < 8; ++k) stack.push_back(c + k);
-  }
-  return n;
-}
-
-// True for device memory (e.g. GL buffers mapped by GlListInterop); plain host memory is not.
-bool on_device(const void* p) {
-  cudaPointerAttributes a{};
-  if (cudaPointerGetAttributes(&a, p) != cudaSuccess) {
-    cudaGetLastError();
-    return false;
-  }
-  return a.type == cudaMemoryTypeDevice || a.type == cudaMemoryTypeManaged;
-}
 
 template <class T>
 DenseGrid<T> device_grid(const Volume& v, const std::byte* data) {
@@ -61,25 +34,7 @@ class InCoreCaster {
   void cast(const Scene& scene, const RenderSettings& s, CastParams p, SkipInputs skip, Frame& frame) {
     Timer timer;
     upload_volume(scene);
-    // Per-frame inputs: transfer-function table, enabled labels, the skipping structures.
-    tf_.upload(p.tf.table, std::size_t(p.tf.size), stream_);
-    p.tf.table = tf_.get();
-    if (p.labels.bits) {
-      bits_.upload(p.labels.bits, (p.labels.size + 31) / 32, stream_);
-      p.labels.bits = bits_.get();
-    }
-    if ((skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) && !on_device(skip.lists.events)) {
-      // (Lists mapped from GL by GlListInterop are already on the device: used in place.)
-      const SegmentListView& v = skip.lists;
-      const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
-      events_.upload(v.events, pixels * v.capacity, stream_);
-      counts_.upload(v.counts, pixels, stream_);
-      skip.lists.events = events_.get();
-      skip.lists.counts = counts_.get();
-    } else if (skip.method == SkipMethod::Octree) {
-      nodes_.upload(skip.octree.nodes, octree_node_count(skip.octree), stream_);
-      skip.octree.nodes = nodes_.get();
-    }
+    inputs_.upload(p, skip, stream_);  // transfer-function table, enabled labels, skipping structures
     const bool iso = s.mode == RenderMode::Iso;
     const FrameOutputs out = frame_.prepare(s.width, s.height, iso, stream_);
     const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
@@ -130,10 +85,7 @@ class InCoreCaster {
   const Volume* labels_ = nullptr;
   std::uint64_t volume_bytes_ = 0, labels_bytes_ = 0;
   DeviceBuffer<std::byte> vol_, lab_;
-  DeviceBuffer<vec4> tf_;
-  DeviceBuffer<std::uint32_t> bits_, counts_;
-  DeviceBuffer<RayEvent> events_;
-  DeviceBuffer<SkipOctreeNode> nodes_;
+  FrameInputs inputs_;
   DeviceFrame frame_;
 };
 
@@ -162,14 +114,6 @@ InCoreRenderer::Caster make_frame_caster() {
   auto state = std::make_shared<InCoreCaster>();
   return [state](const Scene& scene, const RenderSettings& s, const CastParams& p, const SkipInputs& skip,
                  Frame& frame) { state->cast(scene, s, p, skip, frame); };
-}
-
-Frame render(const Scene& scene, const RenderSettings& s) {
-  InCoreRenderer r;
-  r.set_caster(make_frame_caster());
-  Frame f = r.render(scene, s);
-  f.stats.backend = "cuda";
-  return f;
 }
 
 }  // namespace sl::cuda

@@ -18,13 +18,11 @@ struct DeviceInfo {
 // Never throws: no driver or no device gives count 0 and the runtime's reason.
 DeviceInfo query_devices();
 
-// In core: a InCoreRenderer::Caster that casts on device 0 with the skipping structures the CPU renderer
-// prepared (segment lists, octree), uploaded each frame; the volume is uploaded once per Volume.
-// Methods none, bbox, octree, sparseleap; every mode. The returned function owns the device state.
+// In core: an InCoreRenderer::Caster that casts on device 0 with the skipping structures the CPU
+// renderer prepared (segment lists, octree), uploaded each frame; the volume is uploaded once per
+// Volume. Methods none, bbox, octree, sparseleap; every mode. The returned function owns the device
+// state.
 InCoreRenderer::Caster make_frame_caster();
-
-// One frame on device 0 (a InCoreRenderer with make_frame_caster()); stats.backend = "cuda".
-Frame render(const Scene& scene, const RenderSettings& settings);
 
 // Out of core: the device side of OutOfCoreRenderer (cache/cast_device.h): page table, slot pool,
 // miss buffer and usage stamps in device memory, brick uploads on a stream that overlaps the frame.
@@ -35,24 +33,5 @@ struct CastDeviceOptions {
   bool texture_atlas = false;
 };
 std::unique_ptr<CastDevice> make_cast_device(const CastDeviceOptions& options = {});
-
-// Buffer interop (cudaGraphicsGLRegisterBuffer): maps the GL builder's lists (events and count
-// buffers, GlSegmentListBuilder::events_buffer()/counts_buffer()) into CUDA for the duration of a
-// scope, so the kernels read them without a copy. Needs a current GL context on a CUDA-capable GPU.
-// Compiled only: unverified without a GPU.
-class GlListInterop {
- public:
-  GlListInterop(unsigned int events_buffer, unsigned int counts_buffer);
-  ~GlListInterop();
-  GlListInterop(const GlListInterop&) = delete;
-  GlListInterop& operator=(const GlListInterop&) = delete;
-  // Maps both buffers and returns a device view of them (valid until unmap()).
-  SegmentListView map(int width, int height, std::uint32_t capacity);
-  void unmap();
-
- private:
-  struct Impl;
-  std::unique_ptr<Impl> impl_;
-};
 
 }  // namespace sl::cuda

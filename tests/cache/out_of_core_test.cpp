@@ -9,6 +9,7 @@
 #include "cache/synthetic/generate.h"
 #include "cache/out_of_core.h"
 #include "cache/synthetic/procedural_neurites.h"
+#include "core/block_metadata.h"
 #include "core/in_core_renderer.h"
 #include "core/error.h"
 #include "tests/test_util.h"
@@ -151,6 +152,67 @@ TEST(OutOfCore, TreeAndCacheFallBackAfterTheCameraMovesAway) {
   }
   EXPECT_LT(r.tree().node_count(), nodes_near) << "unused nodes must be retired";
   EXPECT_LE(f.stats.cache.resident_mb, double(os.cache_mb));
+}
+
+// DESIGN.md §5: a transfer-function or label change re-culls the tree from the cached metadata
+// (OccupancyTree::recull); nothing is reloaded and no metadata is computed again, and the view
+// converges to the in-core image under the new culling.
+TEST(OutOfCore, TransferFunctionAndLabelChangesReCullWithoutLoadsOrNewMetadata) {
+  const Data d = neurites(ivec3(96, 80, 64), 6);
+  const TransferFunction wide = default_transfer_function(0, 255);
+  // A narrow opaque band: most blocks that were NON_EMPTY become EMPTY, and the reverse is tested by
+  // going back.
+  const TransferFunction narrow({{0, {0, 0, 0, 0}}, {180, {0, 0, 0, 0}}, {200, {0.2f, 0.7f, 1, 0.6f}}, {220, {0, 0, 0, 0}}});
+  const LabelSet some = parse_enable_spec("fraction:0.2:1", d.label_count);
+  const Camera cam = default_camera(d.volume->desc().extent());
+  RenderSettings s;
+  s.width = 64;
+  s.height = 48;
+  OutOfCoreSettings os;
+  os.brick = 16;
+  os.lod = 0;
+  os.cache_mb = 64;  // the whole volume stays resident
+  OutOfCoreRenderer r(std::make_shared<MemoryVolumeSource>(d.volume, d.labels, "n"), os, 16);
+  // First view: each culling block's metadata is computed once, and counted by the process-wide
+  // counter exactly as in core.
+  std::uint64_t computed = block_metadata_computations();
+  std::uint64_t counted = 0;
+  Frame first;
+  for (int i = 0; i < 60 && !r.converged(); ++i) {
+    first = r.render(OutOfCoreScene{&wide, nullptr, cam}, s);
+    counted += first.stats.metadata_computed;
+    r.wait_for_loads();
+  }
+  ASSERT_TRUE(r.converged());
+  const std::size_t blocks = r.metadata_blocks();
+  EXPECT_GT(blocks, 0u);
+  EXPECT_EQ(counted, blocks);
+  EXPECT_EQ(block_metadata_computations() - computed, counted);
+  computed = block_metadata_computations();
+
+  struct Change {
+    const TransferFunction* tf;
+    const LabelSet* enabled;
+  };
+  std::uint64_t samples = first.stats.samples;
+  for (const Change c : {Change{&narrow, nullptr}, Change{&narrow, &some}, Change{&wide, &some}}) {
+    const OutOfCoreScene scene{c.tf, c.enabled, cam};
+    Frame f;
+    for (int i = 0; i < 30 && !(i > 0 && r.converged()); ++i) {
+      f = r.render(scene, s);
+      EXPECT_EQ(f.stats.cache.loads, 0u) << "frame " << i;
+      EXPECT_EQ(f.stats.metadata_computed, 0u) << "frame " << i;
+      r.wait_for_loads();
+    }
+    EXPECT_TRUE(r.converged());
+    EXPECT_EQ(block_metadata_computations(), computed);
+    EXPECT_EQ(r.metadata_blocks(), blocks);
+    EXPECT_NE(f.stats.samples, samples) << "the re-cull took effect";
+    samples = f.stats.samples;
+    const Frame in_core = InCoreRenderer().render(Scene{d.volume.get(), d.labels.get(), c.tf, c.enabled, cam}, s);
+    EXPECT_LE(max_abs_diff(f.image, in_core.image), 1e-5f);
+    computed = block_metadata_computations();  // (the in-core reference computed its own)
+  }
 }
 
 // A source whose bricks at one level fail: reported once, rendered as missing, rendering goes on.

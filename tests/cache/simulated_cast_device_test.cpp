@@ -230,7 +230,9 @@ TEST(SimulatedCastDevice, MissesAndUsageComeBackAndDriveResolutionAndEviction) {
     // First frame: everything is UNKNOWN, so rays report occupancy misses that come back.
     const Frame first = r->renderer->render(OutOfCoreScene{&tf, nullptr, near}, s);
     EXPECT_GT(first.stats.cache.misses, 0u);
-    if (r->device) EXPECT_EQ(r->device->last_frame().misses_returned, first.stats.cache.misses);
+    if (r->device) {
+      EXPECT_EQ(r->device->last_frame().misses_returned, first.stats.cache.misses);
+    }
   }
   const Frame cpu_near = converge(*cpu.renderer, OutOfCoreScene{&tf, nullptr, near}, s);
   const Frame sim_near = converge(*sim.renderer, OutOfCoreScene{&tf, nullptr, near}, s);
@@ -254,7 +256,9 @@ TEST(SimulatedCastDevice, MissesAndUsageComeBackAndDriveResolutionAndEviction) {
   // Evicted bricks left the device's table too (their words were sent).
   for (std::uint32_t slot = 0; slot < sim.renderer->slot_count(); ++slot) {
     const BrickId id = sim.renderer->brick_in_slot(slot);
-    if (id.valid()) EXPECT_EQ(sim.device->entry(id), sim.renderer->page_entry(id));
+    if (id.valid()) {
+      EXPECT_EQ(sim.device->entry(id), sim.renderer->page_entry(id));
+    }
   }
 }
 

@@ -1,4 +1,5 @@
-// Culling blocks and their metadata (DESIGN.md §3): the one-voxel dilation, clipping, validation.
+// Culling blocks and their metadata (DESIGN.md §3): the one-voxel dilation, clipping, validation, and
+// the same answer from a brick with its apron (out of core) as from the whole volume (in core).
 #include "core/block_metadata.h"
 
 #include <gtest/gtest.h>
@@ -92,6 +93,60 @@ TEST(BlockMetadata, ParallelTableEqualsPerBlockAndIsCounted) {
     EXPECT_EQ(t.at(b).max, m.max);
     EXPECT_EQ(t.at(b).labels, m.labels);
   }
+}
+
+// Out of core, metadata comes from one brick with its one-voxel apron: for every culling block of
+// every brick (bricks of 8, blocks of 4, odd dims so bricks and blocks are clipped), the same numbers
+// as from the whole volume.
+TEST(BlockMetadata, BrickWithApronGivesTheWholeVolumesAnswer) {
+  VolumeDesc d;
+  d.dims = ivec3(13, 11, 9);
+  Volume intensity(d);
+  d.type = VoxelType::U16;
+  Volume labels(d);
+  for (int z = 0; z < d.dims.z; ++z)
+    for (int y = 0; y < d.dims.y; ++y)
+      for (int x = 0; x < d.dims.x; ++x) {
+        intensity.set(x, y, z, float((x * 37 + y * 11 + z * 5) % 97));
+        labels.set(x, y, z, float((x / 3 + y / 4 + z) % 6));
+      }
+  const BlockGrid g = make_block_grid(d.dims, d.spacing, 4);
+  const VolumeView lv = labels.view();
+  constexpr int kBrick = 8, kStored = kBrick + 2;
+  int checked = 0;
+  for (int bz = 0; bz * kBrick < d.dims.z; ++bz)
+    for (int by = 0; by * kBrick < d.dims.y; ++by)
+      for (int bx = 0; bx * kBrick < d.dims.x; ++bx) {
+        // The brick as the loader stores it: payload plus apron, clamped to the volume's edge voxels.
+        const ivec3 first = ivec3(bx, by, bz) * kBrick - 1;
+        VolumeDesc bd;
+        bd.dims = ivec3(kStored);
+        Volume bi(bd);
+        bd.type = VoxelType::U16;
+        Volume bl(bd);
+        for (int z = 0; z < kStored; ++z)
+          for (int y = 0; y < kStored; ++y)
+            for (int x = 0; x < kStored; ++x) {
+              const ivec3 v = glm::clamp(first + ivec3(x, y, z), ivec3(0), d.dims - 1);
+              bi.set(x, y, z, intensity.view().value(v.x, v.y, v.z));
+              bl.set(x, y, z, float(lv.label(v.x, v.y, v.z)));
+            }
+        const VolumeView blv = bl.view();
+        for (int cz = 0; cz < 2; ++cz)
+          for (int cy = 0; cy < 2; ++cy)
+            for (int cx = 0; cx < 2; ++cx) {
+              const ivec3 c = ivec3(bx, by, bz) * 2 + ivec3(cx, cy, cz);
+              if (!g.inside(c)) continue;
+              const BlockMetadata whole = compute_block_metadata(g, intensity.view(), &lv, c.x, c.y, c.z);
+              const BlockMetadata brick = compute_block_metadata(bi.view(), &blv, first, d.dims, c * 4, 4);
+              EXPECT_EQ(brick.min, whole.min);
+              EXPECT_EQ(brick.max, whole.max);
+              EXPECT_EQ(brick.labels, whole.labels);
+              EXPECT_TRUE(brick.has_labels && brick.computed);
+              ++checked;
+            }
+      }
+  EXPECT_EQ(checked, int(g.block_count()));
 }
 
 }  // namespace

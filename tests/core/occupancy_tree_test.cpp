@@ -1,5 +1,6 @@
 // Occupancy histogram tree (paper §5, Alg. 1): weighted histograms, majority vote and its tie order,
-// collapse, non-power-of-two volumes, re-culling from cached metadata, lazy growth and LRU retirement.
+// collapse, non-power-of-two volumes, re-culling from cached metadata (in core from block classes, out
+// of core from culled regions), the one descent, lazy growth and LRU retirement.
 #include "core/occupancy_tree.h"
 
 #include <gtest/gtest.h>
@@ -144,9 +145,10 @@ TEST(OccupancyTree, ReclassifyReusesMetadata) {
   const std::uint64_t computed = block_metadata_computations();
   p.tf = &opaque_low;  // a TF change: re-cull from the cached metadata
   const std::vector<C> classes = classify_blocks(table, p);
+  const std::uint64_t revision = t.revision();
   t.reclassify(classes);
   EXPECT_EQ(block_metadata_computations(), computed);  // nothing recomputed
-  EXPECT_EQ(t.reclassify_count(), 1u);
+  EXPECT_NE(t.revision(), revision);                   // geometry and lists built before are stale
   for (std::size_t i = 0; i < g.block_count(); ++i) EXPECT_EQ(t.node(t.find_leaf(g.block_coord(i))).cls, classes[i]);
   EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 0, 0))).cls, C::Empty);
   EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).cls, C::NonEmpty);
@@ -200,23 +202,79 @@ TEST(OccupancyTree, LeastRecentlyUsedSubtreesRetire) {
   EXPECT_EQ(t.node(t.root()).count[int(C::Unknown)], 8u);
 }
 
-TEST(OccupancyTree, LazyReclassifyLeavesCoarseUnknownAlone) {
-  const BlockGrid g = cube_grid(2);
+TEST(OccupancyTree, DescendStopsAtDepthOrAtTheLeafAboveAndRefiningReachesTheDepth) {
+  const BlockGrid g = cube_grid(3);  // 8^3 blocks
   OccupancyTree t(g);
-  const std::uint32_t c = t.refine(t.root());
-  const std::uint32_t d = t.refine(c);
-  for (int k = 0; k < 8; ++k) t.set_leaf_class(d + k, C::Empty);
-  t.set_leaf_class(c + 1, C::NonEmpty);
+  EXPECT_EQ(t.descend(ivec3(5, 2, 7), 2), t.root());  // only a root: the leaf above depth 2
+  const std::uint32_t n = t.descend_refining(ivec3(5, 2, 7), 2);
+  EXPECT_EQ(t.node(n).depth, 2);
+  EXPECT_EQ(t.node(n).lo, ivec3(4, 2, 6));  // the depth-2 node (2 blocks wide) holding it
+  EXPECT_EQ(t.size_blocks(n), 2);
+  EXPECT_EQ(t.descend(ivec3(5, 2, 7), 2), n);
+  EXPECT_EQ(t.descend(ivec3(5, 2, 7), 3), n);  // no finer node yet
+  EXPECT_EQ(t.find_leaf(ivec3(5, 2, 7)), n);
+  EXPECT_EQ(t.node(t.descend(ivec3(5, 2, 7), 1)).depth, 1);
+  EXPECT_EQ(t.node_count(), 1u + 8u + 8u);  // refined the root and one child on the way
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).depth, 1);
+}
+
+TEST(OccupancyTree, RegionClassFillsOnlyUnknownLeavesBelowKnownFinerOnes) {
+  const BlockGrid g = cube_grid(2);  // 4^3 blocks
+  OccupancyTree t(g);
+  // A fine region first, then the coarse region around it: the fine class stays.
+  t.set_region_class(RegionClass{2, ivec3(1, 1, 1), C::NonEmpty});
+  const std::uint32_t coarse = t.set_region_class(RegionClass{1, ivec3(0, 0, 0), C::Empty});
+  EXPECT_EQ(t.node(coarse).depth, 1);
+  EXPECT_FALSE(t.is_leaf(coarse));
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(1, 1, 1))).cls, C::NonEmpty);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).cls, C::Empty);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(2, 0, 0))).cls, C::Unknown);  // another depth-1 region: untouched
+  // A region that is a leaf takes the class outright.
+  t.set_region_class(RegionClass{1, ivec3(2, 0, 0), C::NonEmpty});
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(3, 1, 1))).cls, C::NonEmpty);
   t.propagate();
-  int calls = 0;
-  t.reclassify([&](ivec3 b) {
-    ++calls;
-    return b.x == 0 && b.y == 0 && b.z == 0 ? C::NonEmpty : C::Empty;
-  });
-  EXPECT_EQ(calls, 8 + 8);  // the 8 known blocks and the known coarse leaf's 8 blocks, nothing else
-  EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).cls, C::NonEmpty);
-  EXPECT_EQ(t.node(t.find_leaf(ivec3(2, 0, 0))).cls, C::Empty);
-  EXPECT_EQ(t.node(t.find_leaf(ivec3(3, 3, 3))).cls, C::Unknown);
+  EXPECT_EQ(t.node(t.root()).count[int(C::NonEmpty)], 1u + 8u);
+}
+
+TEST(OccupancyTree, RecullRebuildsFromRegionsCoarseBeforeFineAndMarksThemUsed) {
+  const BlockGrid g = make_block_grid(ivec3(40, 32, 32), vec3(1.0f), 8);  // 5x4x4 blocks, 8^3 cube
+  OccupancyTree t(g);
+  t.set_region_class(RegionClass{3, ivec3(4, 3, 3), C::NonEmpty});  // knowledge the re-cull replaces
+  const std::uint64_t revision = t.revision();
+  // As out of core: culling blocks of pyramid levels 2, 1 and 0, coarse before fine.
+  const std::vector<RegionClass> regions = {
+      {1, ivec3(0, 0, 0), C::Empty},
+      {2, ivec3(4, 0, 0), C::NonEmpty},  // refines the depth-1 leaf around it
+      {3, ivec3(4, 2, 0), C::Empty},     // refines a depth-2 leaf of that one
+  };
+  t.recull(regions, 7);
+  EXPECT_NE(t.revision(), revision);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).cls, C::Empty);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(3, 3, 3))).cls, C::Empty);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 1, 1))).cls, C::NonEmpty);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 2, 0))).cls, C::Empty);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 2, 0))).depth, 3);
+  // Not covered by a region: UNKNOWN, to regrow on demand (the old NON_EMPTY block among them).
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 3, 0))).cls, C::Unknown);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 3, 3))).cls, C::Unknown);
+  // The regions' nodes and their ancestors are used in frame 7; nodes only split on the way are not.
+  EXPECT_EQ(t.node(t.root()).last_used, 7u);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(0, 0, 0))).last_used, 7u);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 2, 0))).last_used, 7u);
+  EXPECT_EQ(t.node(t.find_leaf(ivec3(4, 0, 2))).last_used, 0u);
+}
+
+TEST(OccupancyTree, RevisionsDifferAcrossTreesAndEdits) {
+  const BlockGrid g = cube_grid(2);
+  OccupancyTree a(g), b(g);
+  EXPECT_NE(a.revision(), b.revision());  // two fresh trees: a cache keyed on one never takes the other
+  const std::uint64_t ra = a.revision();
+  a.refine(a.root());
+  EXPECT_NE(a.revision(), ra);
+  OccupancyTree c = a;  // a copy is the same tree until either changes
+  EXPECT_EQ(c.revision(), a.revision());
+  c.propagate();
+  EXPECT_NE(c.revision(), a.revision());
 }
 
 RC_GTEST_PROP(OccupancyTreeProperty, HistogramsMatchTheLeavesBelow, (std::uint64_t seed)) {

@@ -64,7 +64,9 @@ TEST(CudaKernels, EveryMethodAndSamplerIsInTheExecutableForEveryArchitecture) {
                                         "21TextureVirtualSamplerIfE"};
   const std::string none = "12sl_cast_none", octree = "14sl_cast_octree", lists = "21sl_cast_segment_lists";
   for (const Arch& a : archs) {
-    if (a.ptx) EXPECT_TRUE(c.ptx_archs.count(a.sm)) << "no PTX for compute_" << a.sm;
+    if (a.ptx) {
+      EXPECT_TRUE(c.ptx_archs.count(a.sm)) << "no PTX for compute_" << a.sm;
+    }
     if (!a.sass) continue;
     ASSERT_TRUE(c.elf_functions.count(a.sm)) << "no SASS for sm_" << a.sm;
     const std::set<std::string>& fns = c.elf_functions.at(a.sm);

@@ -14,7 +14,7 @@
 namespace sl {
 namespace {
 
-InCoreRenderer::ListBuilder gl_builder(GlContext& ctx) {
+ListBuilder gl_builder(GlContext& ctx) {
   auto b = std::make_shared<GlSegmentListBuilder>(ctx);
   return [b, &ctx](const OccupancyGeometry& g, std::span<const VisibilityEntry> order, const RayGenerator& gen,
                    SegmentListBuffer& out, float eps) {

@@ -182,7 +182,7 @@ void BM_SegmentListBuild(benchmark::State& state) {
   const BenchScene& s = scene();
   const Skipping& k = skipping(int(state.range(0)));
   SegmentListBuffer lists;
-  lists.reset(kView, kView, InCoreRenderer::kListCapacity);
+  lists.reset(kView, kView, kListCapacity);
   const TimedThreads threads;
   SegmentListStats st;
   for (auto _ : state) {
@@ -262,7 +262,7 @@ const MergeTrace& merge_trace() {
     }
     // The trace is what the builder feeds: replayed, it gives the builder's lists event for event.
     SegmentListBuffer built;
-    built.reset(kView, kView, InCoreRenderer::kListCapacity);
+    built.reset(kView, kView, kListCapacity);
     build_segment_lists(k.geometry, k.order, s.gen, built, 0.0f);
     for (std::size_t p = 0; p + 1 < t->box_begin.size(); ++p) {
       const BenchScene::RaySpan& px = s.rays[p * stride];
@@ -284,7 +284,7 @@ const MergeTrace& merge_trace() {
 
 void BM_MergeRules_AddBoxEvent(benchmark::State& state) {
   const MergeTrace& t = merge_trace();
-  constexpr std::uint32_t cap = InCoreRenderer::kListCapacity;
+  constexpr std::uint32_t cap = kListCapacity;
   RayEvent ev[kMaxEvents];
   void* escaped = ev;  // the list's stores stay observable (ClobberMemory per pixel)
   benchmark::DoNotOptimize(escaped);
@@ -314,7 +314,7 @@ BENCHMARK(BM_MergeRules_AddBoxEvent)->Name("BM_MergeRules/add_box_event");
 
 void BM_MergeRules_AddEvent(benchmark::State& state) {
   const MergeTrace& t = merge_trace();
-  constexpr std::uint32_t cap = InCoreRenderer::kListCapacity;
+  constexpr std::uint32_t cap = kListCapacity;
   RayEvent ev[kMaxEvents];
   void* escaped = ev;
   benchmark::DoNotOptimize(escaped);

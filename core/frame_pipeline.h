@@ -1,0 +1,76 @@
+// The frame pipeline every renderer and backend shares (STYLE.md #12): frame setup; the SparseLeap
+// skipping structures of an occupancy tree — occupancy geometry (paper Alg. 2) → visibility order
+// (Alg. 3) → segment lists (Alg. 4–5), or the bounding-geometry lists — each stage timed into Stats,
+// the lists reused while the view is unchanged (DESIGN.md §7); and the overlays and total time that
+// end the frame. The in-core renderer gives it the tree it builds from block classes (and keeps the
+// octree baseline on top); the out-of-core renderer the tree it grows lazily. The cast parameters come
+// from make_cast_params (core/frame.h), the cast from the backend.
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <span>
+#include <vector>
+
+#include "core/camera.h"
+#include "core/frame.h"
+#include "core/occupancy_geometry.h"
+#include "core/segment_list.h"
+#include "core/segment_list_builder.h"
+#include "core/visibility_order.h"
+
+namespace sl {
+
+// Events per pixel list. Longer lists are made conservative (their tail is sampled) and counted in
+// Stats::list_overflows; neurite scenes stay well below (about 30 events at most).
+inline constexpr std::uint32_t kListCapacity = 32;
+
+// Builds SparseLeap segment lists with build_segment_lists's signature into `out` (keeping its size
+// and capacity), e.g. GlSegmentListBuilder for `--lists gl`; lists equal to the CPU builder's give
+// the same image (DESIGN.md §7, tests/gl/gl_lists_renderer_test.cpp).
+using ListBuilder = std::function<SegmentListStats(const OccupancyGeometry&, std::span<const VisibilityEntry>,
+                                                   const RayGenerator&, SegmentListBuffer& out, float eps)>;
+
+// A frame of the settings' size (image with its channels), its stats header filled.
+Frame begin_frame(const RenderSettings& settings);
+
+class FramePipeline {
+ public:
+  // The occupancy geometry of `tree`, rebuilt only when the tree changed (its revision); the stage's
+  // time and box count go into `st`.
+  const OccupancyGeometry& geometry(const OccupancyTree& tree, Stats& st);
+  // The per-pixel lists of `method` (SparseLeap: visibility order and segment lists over geometry(),
+  // which must be current; BBox: first entry / last exit of the non-empty leaves). Reused while the
+  // view, the tree, the method and the short-gap threshold `eps` are unchanged (a step, lighting or
+  // opacity-scale change keeps them); otherwise rebuilt, timed into `st`. Fills st.events and
+  // st.list_overflows either way.
+  SegmentListView lists(const OccupancyTree& tree, SkipMethod method, const RayGenerator& gen, float eps,
+                        Stats& st);
+  // Ends the frame: the settings' overlays — the depth-complexity view; the occupancy boxes, when the
+  // geometry was built from `tree` as it is now (null: no tree) — and the total time since `total`.
+  void finish_frame(Frame& frame, const RenderSettings& settings, const OccupancyTree* tree,
+                    const RayGenerator& gen, const Timer& total) const;
+
+  // Builds the SparseLeap lists instead of build_segment_lists (empty: the CPU builder).
+  void set_list_builder(ListBuilder builder);
+  // Forces the next lists() to rebuild even if nothing changed (benchmarks measure rasterization
+  // frames honestly this way).
+  void invalidate_lists() { lists_valid_ = false; }
+
+ private:
+  std::optional<OccupancyGeometry> geometry_;
+  std::vector<OccupancyBox> nonempty_leaves_;  // bbox baseline, of tree revision leaves_revision_
+  std::uint64_t leaves_revision_ = 0;
+  SegmentListBuffer lists_;
+  // Key of the lists in `lists_`: view, tree revision, method and gap threshold they were built for.
+  bool lists_valid_ = false;
+  RayGenerator lists_gen_;
+  std::uint64_t lists_revision_ = 0;
+  SkipMethod lists_method_ = SkipMethod::None;
+  float lists_eps_ = 0.0f;
+  SegmentListStats list_stats_;
+  ListBuilder list_builder_;
+};
+
+}  // namespace sl
