@@ -33,6 +33,10 @@ struct FineOccupancyView {
   vec3 inv_cell_size{1.0f};
 
   SL_HOST_DEVICE SL_INLINE bool enabled() const { return bits != nullptr; }
+  // 64-bit words behind `bits` (what a device copy must hold).
+  SL_HOST_DEVICE std::size_t word_count() const {
+    return (std::size_t(cells.x) * std::size_t(cells.y) * std::size_t(cells.z) + 63) / 64;
+  }
 
   // The cell holding p, clamped to the grid. Truncation equals floor here: a negative coordinate
   // above −1 truncates to 0, which is what the clamp makes of floor's −1.
