@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
@@ -20,6 +19,7 @@
 #include "cache/volume_source.h"
 #include "apps/commands.h"
 #include "apps/scene_loader.h"
+#include "core/atomic_file.h"
 #include "core/camera_path.h"
 #include "core/error.h"
 #include "core/image.h"
@@ -73,15 +73,6 @@ std::vector<SkipMethod> parse_methods(const std::string& s) {
   while (std::getline(ss, item, ',')) out.push_back(parse_skip_method(item));
   if (out.empty()) throw InputError("--methods", "no method given");
   return out;
-}
-
-void write_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!(f << text)) throw InputError(path, "cannot write file");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw InputError(path, "cannot write file");
 }
 
 struct Summary {
@@ -196,8 +187,8 @@ int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
   js["unconverged_views"] = unconverged;
   std::printf("median converged frame %.1f ms, %.1f loads per frame, %d views did not converge\n",
               percentile(conv_ms, 0.5), total_frames ? double(total_loads) / double(total_frames) : 0.0, unconverged);
-  if (!o.csv.empty()) write_file(o.csv, csv.str());
-  if (!o.json.empty()) write_file(o.json, js.dump(2) + "\n");
+  if (!o.csv.empty()) write_file_atomic(o.csv, csv.str());
+  if (!o.json.empty()) write_file_atomic(o.json, js.dump(2) + "\n");
   return 0;
 }
 
@@ -310,9 +301,9 @@ int run_bench(const BenchOptions& o) {
             << s.boxes << ',' << s.events << ',' << s.occupancy_misses << '\n';
       }
     }
-    write_file(o.csv, csv.str());
+    write_file_atomic(o.csv, csv.str());
   }
-  if (!o.json.empty()) write_file(o.json, js.dump(2) + "\n");
+  if (!o.json.empty()) write_file_atomic(o.json, js.dump(2) + "\n");
   return 0;
 }
 

@@ -1,7 +1,5 @@
 // `sparseleap render`: one frame to PREFIX.png and PREFIX.exr, a one-line summary, optional stats JSON.
 #include <cstdio>
-#include <filesystem>
-#include <fstream>
 #include <memory>
 
 #include <tbb/global_control.h>
@@ -16,6 +14,7 @@
 #include "cache/volume_source.h"
 #include "apps/commands.h"
 #include "apps/scene_loader.h"
+#include "core/atomic_file.h"
 #include "core/frame.h"
 #include "core/error.h"
 
@@ -48,17 +47,6 @@ struct RenderOptions {
   unsigned retire_frames = 60;
   bool strict = false;
 };
-
-void write_text_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!(f << text << '\n')) throw InputError(path, "cannot write file");
-  }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) throw InputError(path, "cannot write file: " + ec.message());
-}
 
 // Out of core: the volume is read through the page table and brick cache, bricks stream in over
 // frames; the last frame is written.
@@ -101,7 +89,7 @@ int run_out_of_core(const RenderOptions& o, RenderSettings rs) {
   if (tty) std::fprintf(stderr, "\r%70s\r", "");
   write_png(o.out + ".png", frame.image);
   write_exr(o.out + ".exr", frame.image);
-  if (!o.stats_json.empty()) write_text_file(o.stats_json, stats_to_json(frame.stats));
+  if (!o.stats_json.empty()) write_file_atomic(o.stats_json, stats_to_json(frame.stats) + "\n");
   std::printf("%s (%s, %s) -> %s.png, %s.exr\n", stats_summary(frame.stats).c_str(), name.c_str(),
               "out of core", o.out.c_str(), o.out.c_str());
   if (o.strict && renderer.failed_bricks() > 0) {
@@ -144,7 +132,7 @@ int run_render(const RenderOptions& o) {
   for (int f = 0; f < o.frames; ++f) frame = renderer.render(scene, rs);
   write_png(o.out + ".png", frame.image);
   write_exr(o.out + ".exr", frame.image);
-  if (!o.stats_json.empty()) write_text_file(o.stats_json, stats_to_json(frame.stats));
+  if (!o.stats_json.empty()) write_file_atomic(o.stats_json, stats_to_json(frame.stats) + "\n");
   std::printf("%s -> %s.png, %s.exr\n", stats_summary(frame.stats).c_str(), o.out.c_str(), o.out.c_str());
   return 0;
 }
