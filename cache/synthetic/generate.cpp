@@ -11,42 +11,18 @@
 #include <vector>
 
 #include "core/error.h"
+#include "core/rng.h"
 
 namespace sl {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
 
-// SplitMix64: tiny, fast, and fully specified, so a seed means the same volume everywhere. Each tube
-// or blob draws from its own stream (seed, index), so adding or reordering work cannot shift others.
-class Rng {
- public:
-  Rng(std::uint64_t seed, std::uint64_t stream) : s_(mix(mix(seed) ^ (stream * 0xD1B54A32D192ED03ull))) {}
-  std::uint64_t next() { return mix(s_ += 0x9E3779B97F4A7C15ull); }
-  float uniform() { return float(next() >> 40) * 0x1p-24f; }  // [0, 1), exactly representable steps
-  float uniform(float a, float b) { return a + (b - a) * uniform(); }
-  vec3 in_ball() {  // rejection sampling keeps it isotropic without transcendental functions
-    for (;;) {
-      const vec3 v(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
-      if (glm::dot(v, v) <= 1.0f) return v;
-    }
-  }
-  vec3 unit() {
-    for (;;) {
-      const vec3 v = in_ball();
-      const float l2 = glm::dot(v, v);
-      if (l2 > 1e-4f) return v / std::sqrt(l2);
-    }
-  }
-
- private:
-  static std::uint64_t mix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  std::uint64_t s_;
-};
+// Each tube or blob draws from its own SplitMix64 stream (seed, index), so adding or reordering work
+// cannot shift others.
+SplitMix64 stream_rng(std::uint64_t seed, std::uint64_t stream) {
+  return SplitMix64(splitmix64_mix(splitmix64_mix(seed) ^ (stream * 0xD1B54A32D192ED03ull)));
+}
 
 // Work is split into z-slabs of this many slices. Every voxel belongs to one slab and folds its
 // contributions in global (tube/blob) order, so the result cannot depend on how TBB schedules slabs.
@@ -97,7 +73,7 @@ bool outside(const vec3& p, const vec3& box, float margin) {
 
 // Smooth random walk: the direction turns by a bend velocity that itself does a damped random walk,
 // giving gently curving paths (curvature radius of tens of voxels) rather than jittery ones.
-std::vector<PathNode> walk(Rng& rng, vec3 p, vec3 d, float r0, float length, const vec3& box) {
+std::vector<PathNode> walk(SplitMix64& rng, vec3 p, vec3 d, float r0, float length, const vec3& box) {
   const float phase = rng.uniform(0.0f, 2.0f * kPi);
   const float freq = rng.uniform(0.02f, 0.08f);  // radius varies by +-20 % along the tube
   const auto radius = [&](float s) {
@@ -141,7 +117,7 @@ std::vector<Capsule> neurite_capsules(const ivec3& dims, std::uint32_t seed, std
   // One tube (plus branches) per id until the estimated fill is reached; ids must fit in u16.
   while (filled < kNeuriteFill * voxels && count < 65535) {
     const std::uint16_t id = std::uint16_t(++count);
-    Rng rng(seed, id);
+    SplitMix64 rng = stream_rng(seed, id);
     const float brightness = std::round(rng.uniform(120.0f, 255.0f));
     const float u = rng.uniform();
     const float r0 = 1.0f + 3.0f * u * u * u;  // mostly thin, a few thick ones
@@ -244,7 +220,7 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
   std::vector<Blob> list;
   double filled = 0.0;
   while (filled < kBlobFill * voxels && list.size() < 65535) {
-    Rng rng(seed, list.size() + 1);
+    SplitMix64 rng = stream_rng(seed, list.size() + 1);
     Blob b;
     b.c = vec3(rng.uniform(), rng.uniform(), rng.uniform()) * box;
     b.sigma = std::max(1.0f, rng.uniform(0.015f, 0.05f) * size);
@@ -321,7 +297,7 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
 // dimension, well under 1 % of the voxels). Intensity: a base value per label, modulated by a smooth
 // pattern so that transfer functions show structure; 0 outside.
 GeneratedVolume organs(const ivec3& dims, std::uint32_t seed) {
-  Rng rng(seed, 1);
+  SplitMix64 rng = stream_rng(seed, 1);
   const vec3 box(dims);
   const vec3 centre = 0.5f * box;
   const vec3 half = 0.485f * box;  // 0.97 of the box
