@@ -3,6 +3,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <type_traits>
 
 #include <tbb/parallel_reduce.h>
 #include <tbb/blocked_range.h>
@@ -50,12 +51,14 @@ Volume::Volume(const VolumeDesc& desc, const std::string& origin) : desc_(desc) 
 void Volume::set(int x, int y, int z, float v) {
   const std::uint64_t i = view().index(x, y, z);
   auto clampi = [&](double lo, double hi) { return std::fmin(std::fmax(std::nearbyint(v), lo), hi); };
-  switch (desc_.type) {
-    case VoxelType::U8: as<std::uint8_t>()[i] = std::uint8_t(clampi(0, 255)); break;
-    case VoxelType::U16: as<std::uint16_t>()[i] = std::uint16_t(clampi(0, 65535)); break;
-    case VoxelType::U32: as<std::uint32_t>()[i] = std::uint32_t(clampi(0, 4294967295.0)); break;
-    case VoxelType::F32: as<float>()[i] = v; break;
-  }
+  dispatch_voxel(desc_.type, [&](auto tag) {
+    using T = decltype(tag);
+    if constexpr (std::is_floating_point_v<T>) {
+      as<T>()[i] = v;
+    } else {
+      as<T>()[i] = T(clampi(0, double(std::numeric_limits<T>::max())));
+    }
+  });
 }
 
 std::uint32_t max_label(const Volume& labels) {

@@ -23,6 +23,7 @@
 #include "cache/formats/tiff_stack.h"
 #include "cache/formats/zarr_writer.h"
 #include "core/error.h"
+#include "core/voxel_dispatch.h"
 
 namespace sl {
 namespace {
@@ -208,16 +209,15 @@ class PyramidBuilder {
 };
 
 std::uint32_t slab_max_label(VoxelType t, const std::byte* p, std::size_t n) {
-  std::uint32_t m = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    switch (t) {
-      case VoxelType::U8: m = std::max<std::uint32_t>(m, std::uint8_t(p[i])); break;
-      case VoxelType::U16: m = std::max<std::uint32_t>(m, reinterpret_cast<const std::uint16_t*>(p)[i]); break;
-      case VoxelType::U32: m = std::max<std::uint32_t>(m, reinterpret_cast<const std::uint32_t*>(p)[i]); break;
-      case VoxelType::F32: break;
-    }
-  }
-  return m;
+  return dispatch_label(
+      t,
+      [&](auto tag) {
+        const auto* v = reinterpret_cast<const decltype(tag)*>(p);
+        std::uint32_t m = 0;
+        for (std::size_t i = 0; i < n; ++i) m = std::max<std::uint32_t>(m, v[i]);
+        return m;
+      },
+      [] { return std::uint32_t(0); });  // refused earlier (integer labels only)
 }
 
 }  // namespace
