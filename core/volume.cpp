@@ -5,10 +5,8 @@
 #include <limits>
 #include <type_traits>
 
-#include <tbb/parallel_reduce.h>
-#include <tbb/blocked_range.h>
-
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl {
 
@@ -64,10 +62,10 @@ void Volume::set(int x, int y, int z, float v) {
 std::uint32_t max_label(const Volume& labels) {
   const VolumeView v = labels.view();
   const std::uint64_t n = labels.desc().voxel_count();
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::uint64_t>(0, n, 1 << 16), std::uint32_t(0),
-      [&](const tbb::blocked_range<std::uint64_t>& r, std::uint32_t m) {
-        for (std::uint64_t i = r.begin(); i < r.end(); ++i) {
+  return parallel_reduce(
+      std::uint64_t(0), n, std::uint64_t(1) << 16, std::uint32_t(0),
+      [&](std::uint64_t lo, std::uint64_t hi, std::uint32_t m) {
+        for (std::uint64_t i = lo; i < hi; ++i) {
           const int x = int(i % std::uint64_t(v.dims.x));
           const std::uint64_t yz = i / std::uint64_t(v.dims.x);
           const std::uint32_t l = v.label(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));
@@ -81,10 +79,11 @@ std::uint32_t max_label(const Volume& labels) {
 vec2 value_range(const Volume& vol) {
   const VolumeView v = vol.view();
   const std::uint64_t n = vol.desc().voxel_count();
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::uint64_t>(0, n, 1 << 16), vec2(INFINITY, -INFINITY),
-      [&](const tbb::blocked_range<std::uint64_t>& r, vec2 m) {
-        for (std::uint64_t i = r.begin(); i < r.end(); ++i) {
+  // min and max are exact in any grouping (a NaN voxel is never selected).
+  return parallel_reduce(
+      std::uint64_t(0), n, std::uint64_t(1) << 16, vec2(INFINITY, -INFINITY),
+      [&](std::uint64_t lo, std::uint64_t hi, vec2 m) {
+        for (std::uint64_t i = lo; i < hi; ++i) {
           const int x = int(i % std::uint64_t(v.dims.x));
           const std::uint64_t yz = i / std::uint64_t(v.dims.x);
           const float f = v.value(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));

@@ -1,8 +1,6 @@
 #include "cache/formats/ingest.h"
 
-#include <tbb/blocked_range.h>
 #include <tbb/info.h>
-#include <tbb/parallel_for.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -23,6 +21,7 @@
 #include "cache/formats/tiff_stack.h"
 #include "cache/formats/zarr_writer.h"
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/voxel_dispatch.h"
 
 namespace sl {
@@ -191,8 +190,8 @@ class PyramidBuilder {
       const int out = (b.filled + 1) / 2;
       std::byte* dst = n.data.data() + std::size_t(n.filled) * plane_bytes(l + 1);
       const ivec3 sd(b.dims.x, b.dims.y, b.filled);
-      tbb::parallel_for(tbb::blocked_range<int>(0, out), [&](const tbb::blocked_range<int>& r) {
-        (labels_ ? reduce_mode : reduce_mean)(type_, b.data.data(), sd, dst, r.begin(), r.end());
+      parallel_for(0, out, [&](int lo, int hi) {
+        (labels_ ? reduce_mode : reduce_mean)(type_, b.data.data(), sd, dst, lo, hi);
       });
       n.filled += out;
       SL_CHECK(n.filled <= C);

@@ -2,15 +2,13 @@
 
 #include "cache/synthetic/neurite_tubes.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
 #include "core/error.h"
+#include "core/parallel.h"
 #include "core/rng.h"
 
 namespace sl {
@@ -166,9 +164,9 @@ GeneratedVolume neurite_volume(const ivec3& dims, std::uint32_t seed) {
   });
   const std::size_t slice = std::size_t(dims.x) * std::size_t(dims.y);
 
-  tbb::parallel_for(tbb::blocked_range<int>(0, slab_count(dims), 1), [&](const tbb::blocked_range<int>& r) {
+  parallel_for(0, slab_count(dims), [&](int lo, int hi) {
     std::vector<float> best;  // per voxel: signed distance of the deepest tube core so far
-    for (int s = r.begin(); s != r.end(); ++s) {
+    for (int s = lo; s != hi; ++s) {
       const int z0 = s * kSlab, z1 = std::min(dims.z, z0 + kSlab) - 1;
       best.assign(slice * std::size_t(kSlab), std::numeric_limits<float>::infinity());
       for (const std::uint32_t ci : bins[std::size_t(s)]) {
@@ -242,10 +240,10 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
   const std::size_t slice = std::size_t(dims.x) * std::size_t(dims.y);
   const float floor_value = std::exp(-0.5f * kCut * kCut);
 
-  tbb::parallel_for(tbb::blocked_range<int>(0, slab_count(dims), 1), [&](const tbb::blocked_range<int>& r) {
+  parallel_for(0, slab_count(dims), [&](int lo, int hi) {
     std::vector<float> sum, top;
     std::vector<std::uint16_t> arg;
-    for (int s = r.begin(); s != r.end(); ++s) {
+    for (int s = lo; s != hi; ++s) {
       const int z0 = s * kSlab, z1 = std::min(dims.z, z0 + kSlab) - 1;
       const std::size_t n = slice * std::size_t(z1 - z0 + 1);
       sum.assign(n, 0.0f);
@@ -316,8 +314,8 @@ GeneratedVolume organs(const ivec3& dims, std::uint32_t seed) {
   g.labels = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::U16}, "gen");
   std::uint8_t* intensity = g.intensity.as<std::uint8_t>();
   std::uint16_t* labels = g.labels.as<std::uint16_t>();
-  tbb::parallel_for(tbb::blocked_range<int>(0, dims.z), [&](const tbb::blocked_range<int>& r) {
-    for (int z = r.begin(); z != r.end(); ++z) {
+  parallel_for(0, dims.z, [&](int lo, int hi) {
+    for (int z = lo; z != hi; ++z) {
       for (int y = 0; y < dims.y; ++y) {
         const std::size_t row = (std::size_t(z) * std::size_t(dims.y) + std::size_t(y)) * std::size_t(dims.x);
         for (int x = 0; x < dims.x; ++x) {
@@ -355,8 +353,8 @@ GeneratedVolume sphere(const ivec3& dims) {
   g.intensity = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::F32}, "gen");
   float* out = g.intensity.as<float>();
   const glm::dvec3 centre = glm::dvec3(dims) * 0.5;
-  tbb::parallel_for(tbb::blocked_range<int>(0, dims.z), [&](const tbb::blocked_range<int>& r) {
-    for (int z = r.begin(); z != r.end(); ++z) {
+  parallel_for(0, dims.z, [&](int lo, int hi) {
+    for (int z = lo; z != hi; ++z) {
       for (int y = 0; y < dims.y; ++y) {
         float* row = out + (std::size_t(z) * std::size_t(dims.y) + std::size_t(y)) * std::size_t(dims.x);
         for (int x = 0; x < dims.x; ++x) {
