@@ -5,9 +5,11 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/blocked_range2d.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <memory>
 #include <type_traits>
 
 namespace sl {
@@ -57,5 +59,19 @@ void parallel_for_tiles(int width, int height, Fn&& fn) {
     }
   });
 }
+
+// Caps the threads of every parallel loop while it lives (the commands' --threads); 0: all cores.
+class ThreadLimit {
+ public:
+  explicit ThreadLimit(int threads) {
+    if (threads > 0) {
+      control_ = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism,
+                                                       std::size_t(threads));
+    }
+  }
+
+ private:
+  std::unique_ptr<tbb::global_control> control_;
+};
 
 }  // namespace sl
