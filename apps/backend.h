@@ -40,13 +40,12 @@ CudaSampler parse_cuda_sampler(const std::string& name);
 
 // The out-of-core cast device of a backend: the CUDA device (sampling as `sampler` says), or null
 // (the CPU caster).
-std::unique_ptr<CastDevice> make_cast_device(Backend b, CudaSampler sampler = CudaSampler::Slots);
+std::unique_ptr<CastDevice> make_cast_device(Backend b, CudaSampler sampler);
 
 class FrameRenderer {
  public:
   explicit FrameRenderer(Backend b, ListSource lists = ListSource::Cpu);
   Frame render(const Scene& scene, const RenderSettings& settings);
-  Backend backend() const { return backend_; }
   void invalidate_lists() { cpu_.invalidate_lists(); }
 
  private:

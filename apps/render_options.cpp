@@ -26,8 +26,6 @@ void parse_size(const std::string& s, int& w, int& h) {
 
 bool RenderOptions::out_of_core() const { return cache_mb > 0 || is_procedural_spec(scene.volume); }
 
-bool out_of_core_method(SkipMethod m) { return m == SkipMethod::SparseLeap || m == SkipMethod::None; }
-
 void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   const bool view = cmd == Command::View;
   // The viewer's keys for what its options only set at the start.

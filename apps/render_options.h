@@ -64,7 +64,8 @@ void complete_settings(const RenderOptions& o, const SourceScene& s, RenderSetti
 // The out-of-core renderer's settings from the options (cache 1024 MB when --cache-mb is not given).
 OutOfCoreSettings out_of_core_settings(const RenderOptions& o);
 
-// The out-of-core methods (DESIGN.md §4: the page-table sampler walks segment lists or every sample).
-bool out_of_core_method(SkipMethod m);
+// The methods out of core (the page-table sampler walks segment lists or every sample); also what the
+// viewer's method keys and buttons offer there.
+inline bool out_of_core_method(SkipMethod m) { return m == SkipMethod::SparseLeap || m == SkipMethod::None; }
 
 }  // namespace sl::app

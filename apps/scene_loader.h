@@ -9,7 +9,6 @@
 
 #include "cache/volume_source.h"
 #include "core/camera.h"
-#include "core/frame.h"
 #include "core/labels.h"
 #include "core/transfer_function.h"
 #include "core/volume.h"
