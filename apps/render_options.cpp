@@ -32,7 +32,7 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   const auto key = [&](const char* k) { return view ? std::string(" (key ") + k + ")" : std::string(); };
   SceneOptions& s = o.scene;
   c.add_option("--volume", s.volume,
-               "Volume: NRRD (.nrrd/.nhdr), OME-Zarr store (.zarr; out of core with --cache-mb), "
+               "Volume: NRRD (.nrrd/.nhdr), NIfTI-1 (.nii/.nii.gz), TIFF stack (.tif/.tiff or a directory), OME-Zarr store (.zarr; out of core with --cache-mb), "
                "builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
   c.add_option("--labels", s.labels,
                "Label volume (NRRD or .zarr store, integer type, same dims); a .zarr volume's own labels/ group is "

@@ -6,6 +6,7 @@
 #include "cache/synthetic/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "cache/formats/nrrd.h"
+#include "cache/formats/volume_file.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
 #include "core/error.h"
@@ -28,10 +29,10 @@ GeneratedVolume load_builtin(const std::string& spec) {
   return generate_volume(m[1], dims, seed);
 }
 
-// A volume file: NRRD, or level 0 of an OME-Zarr store read whole (in core). A store bigger than half
+// A volume file (NRRD, NIfTI-1, TIFF stack), or level 0 of an OME-Zarr store read whole (in core). A store bigger than half
 // of this machine's memory is refused with the hint to stream it (out of core) instead.
 Volume read_volume_file(const std::string& path, bool store_labels = false) {
-  if (!zarr::is_zarr_path(path)) return read_nrrd(path);
+  if (!zarr::is_zarr_path(path)) return sl::read_volume_file(path);
   const zarr::StoreInfo info = zarr::open_store(path);
   const VolumeDesc& d = store_labels && info.labels ? info.labels->desc : info.image.desc;
   const double phys = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
