@@ -70,11 +70,22 @@ ListBuilder make_gl_list_builder() {
 #endif
 }
 
-std::unique_ptr<CastDevice> make_cast_device(Backend b) {
+CudaSampler parse_cuda_sampler(const std::string& name) {
+  if (name == "slots") return CudaSampler::Slots;
+  if (name == "atlas") return CudaSampler::Atlas;
+  throw InputError("--cuda-sampler", "unknown sampler '" + name + "' (expected slots or atlas)");
+}
+
+std::unique_ptr<CastDevice> make_cast_device(Backend b, CudaSampler sampler) {
 #ifdef SL_HAVE_CUDA
-  if (b == Backend::Cuda) return cuda::make_cast_device();
+  if (b == Backend::Cuda) {
+    cuda::CastDeviceOptions options;
+    options.texture_atlas = sampler == CudaSampler::Atlas;
+    return cuda::make_cast_device(options);
+  }
 #else
   (void)b;
+  (void)sampler;
 #endif
   return nullptr;
 }

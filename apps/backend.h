@@ -1,5 +1,6 @@
-// Choosing the rendering backend (`--backend auto|cpu|cuda`) and the segment-list builder
-// (`--lists cpu|gl`), and rendering a frame with them.
+// Choosing the rendering backend (`--backend auto|cpu|cuda`), the segment-list builder
+// (`--lists cpu|gl`) and the CUDA brick sampler (`--cuda-sampler slots|atlas`), and rendering in core
+// with them.
 #pragma once
 
 #include <memory>
@@ -25,28 +26,31 @@ Backend choose_backend(const std::string& name, std::string* notice = nullptr);
 enum class ListSource { Cpu, Gl };
 ListSource parse_list_source(const std::string& name);
 
-// A ListBuilder running on a headless GL context made here (InputError naming --lists
-// when no context can be made). The function owns the context and the builder.
+// A ListBuilder running on a headless GL context made here (InputError naming --lists when no context
+// can be made). The function owns the context and the builder; a GL context is current on one thread,
+// so make it on the thread that renders.
 ListBuilder make_gl_list_builder();
 
-// The out-of-core cast device of a backend: the CUDA device, or null (the CPU caster).
-std::unique_ptr<CastDevice> make_cast_device(Backend b);
+// How the CUDA cast device samples the out-of-core brick cache: `slots`, software trilinear from a
+// linear slot pool (the CPU's arithmetic, the same image), or `atlas`, the texture unit's hardware
+// trilinear over a 3D texture atlas (CastDeviceOptions::texture_atlas; close to, not bit-identical
+// with, the CPU). InputError for anything else.
+enum class CudaSampler { Slots, Atlas };
+CudaSampler parse_cuda_sampler(const std::string& name);
+
+// The out-of-core cast device of a backend: the CUDA device (sampling as `sampler` says), or null
+// (the CPU caster).
+std::unique_ptr<CastDevice> make_cast_device(Backend b, CudaSampler sampler);
 
 class FrameRenderer {
  public:
   explicit FrameRenderer(Backend b, ListSource lists = ListSource::Cpu);
   Frame render(const Scene& scene, const RenderSettings& settings);
-  Backend backend() const { return backend_; }
   void invalidate_lists() { cpu_.invalidate_lists(); }
 
  private:
   Backend backend_;
   InCoreRenderer cpu_;  // prepares the skipping structures for every backend; casts for the CPU
 };
-
-inline Frame render_frame(Backend b, const Scene& scene, const RenderSettings& s) {
-  FrameRenderer r(b);
-  return r.render(scene, s);
-}
 
 }  // namespace sl::app

@@ -5,49 +5,33 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
-#include <tbb/global_control.h>
-
-#include <optional>
-
-#include "apps/backend.h"
-#include "cache/out_of_core.h"
-#include "cache/synthetic/procedural_neurites.h"
-#include "cache/volume_source.h"
 #include "apps/commands.h"
-#include "apps/scene_loader.h"
+#include "apps/render_options.h"
+#include "apps/scene_renderer.h"
+#include "core/atomic_file.h"
 #include "core/camera_path.h"
 #include "core/error.h"
-#include "core/image.h"
+#include "core/parallel.h"
 
 namespace sl::app {
 
 namespace {
 
+constexpr const char* kAllMethods = "none,bbox,octree,sparseleap";
+
 struct BenchOptions {
-  SceneOptions scene;
+  RenderOptions render;
   std::string path;
   int orbit = 24;
-  std::string methods = "none,bbox,octree,sparseleap";
-  std::string size = "512x512";
-  std::string mode = "dvr";
-  std::string backend = "cpu";
-  std::string lists = "cpu";
-  std::string csv, json;
-  float step = 0.5f;
-  float iso = NAN;
-  int block = 16;
+  std::string methods = kAllMethods;
+  bool methods_given = false;  // out of core the default is sparseleap
   int warmup = 1;
-  int threads = 0;
-  bool ert = false;
-  // Out of core.
-  std::size_t cache_mb = 0;
-  int brick = 32;
-  float lod_bias = 1.0f;
+  bool warmup_given = false;  // out of core the default is 0: a view's cold start is what it measures
+  std::string csv, json;
   int max_frames_per_view = 40;
 };
 
@@ -73,15 +57,6 @@ std::vector<SkipMethod> parse_methods(const std::string& s) {
   while (std::getline(ss, item, ',')) out.push_back(parse_skip_method(item));
   if (out.empty()) throw InputError("--methods", "no method given");
   return out;
-}
-
-void write_file(const std::string& path, const std::string& text) {
-  const std::string tmp = path + ".tmp";
-  {
-    std::ofstream f(tmp, std::ios::binary);
-    if (!(f << text)) throw InputError(path, "cannot write file");
-  }
-  if (std::rename(tmp.c_str(), path.c_str()) != 0) throw InputError(path, "cannot write file");
 }
 
 struct Summary {
@@ -120,140 +95,119 @@ Summary summarize(const std::vector<FrameRecord>& recs) {
   return s;
 }
 
-// Out of core: every view of the path is rendered until it converges (no misses, nothing pending) or
-// --max-frames-per-view; reports frames to convergence per view, loads, tree and page-table size.
-int run_bench_out_of_core(const BenchOptions& o, RenderSettings rs) {
-  SourceScene ss = load_source_scene(o.scene, true);
-  const std::shared_ptr<const VolumeSource>& source = ss.source;
-  const TransferFunction& tf = ss.tf;
-  const std::optional<LabelSet>& enabled = ss.enabled;
-  const std::string& name = ss.name;
-  rs.iso = std::isnan(o.iso) ? 128.0f : o.iso;
-  rs.method = SkipMethod::SparseLeap;
-  CameraPath path = o.path.empty() ? orbit_path(source->desc().extent(), o.orbit) : load_camera_path(o.path);
-  OutOfCoreSettings os;
-  os.cache_mb = o.cache_mb > 0 ? o.cache_mb : 1024;
-  os.brick = o.brick;
-  os.lod_bias = o.lod_bias;
-  const ListSource lists = parse_list_source(o.lists);
-  std::string notice;
-  const Backend backend = choose_backend(o.backend, &notice);
-  OutOfCoreRenderer renderer(source, os, rs.block, make_cast_device(backend));
-  if (lists == ListSource::Gl) renderer.set_list_builder(make_gl_list_builder());
-  if (!notice.empty()) std::fputs(notice.c_str(), stderr);
-  std::printf("bench (out of core): %s, %dx%d, %d views, cache %zu MB, brick %d\n", name.c_str(), rs.width,
-              rs.height, path.frames, os.cache_mb, os.brick);
-  std::printf("%5s %9s %12s %10s %11s %10s %12s %11s\n", "view", "frames", "converged ms", "loads", "resident MB",
-              "tree nodes", "page table KB", "samples");
-  nlohmann::json js;
-  js["volume"] = name;
-  js["views"] = nlohmann::json::array();
-  std::ostringstream csv;
-  // Cache hit rate per frame: distinct bricks the rays used that were resident, over those plus the
-  // distinct bricks they missed.
-  const auto hit_rate = [](const Stats& st) {
-    const double all = double(st.cache.hits) + double(st.cache.misses);
-    return all > 0.0 ? double(st.cache.hits) / all : 1.0;
-  };
-  csv << "view,frame,total_ms,raycast_ms,lists_ms,loads,hits,misses,hit_rate,pending,resident_mb,tree_nodes,"
-         "page_table_kb,samples\n";
-  std::vector<double> conv_ms;
-  int unconverged = 0;
-  std::uint64_t total_loads = 0, total_frames = 0;
-  for (int v = 0; v < path.frames; ++v) {
-    const OutOfCoreScene scene{&tf, enabled ? &*enabled : nullptr, path.at(v)};
-    Frame f;
-    int n = 0;
-    std::uint64_t loads = 0;
-    double first_hit_rate = 1.0;
-    while (n < o.max_frames_per_view) {
-      f = renderer.render(scene, rs);
-      ++n;
-      loads += f.stats.cache.loads;
-      if (n == 1) first_hit_rate = hit_rate(f.stats);
-      csv << v << ',' << n << ',' << f.stats.time_ms.total << ',' << f.stats.time_ms.raycast << ','
-          << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.hits << ','
-          << f.stats.cache.misses << ',' << hit_rate(f.stats) << ',' << f.stats.cache.pending << ',' << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ','
-          << f.stats.cache.page_table_kb << ',' << f.stats.samples << '\n';
-      if (renderer.converged()) break;
-    }
-    total_loads += loads;
-    total_frames += std::uint64_t(n);
-    const bool ok = renderer.converged();
-    unconverged += ok ? 0 : 1;
-    if (ok) conv_ms.push_back(f.stats.time_ms.total);
-    std::printf("%5d %9s %12.1f %10llu %11.1f %10llu %12.1f %11llu\n", v,
-                ok ? std::to_string(n).c_str() : (">" + std::to_string(n)).c_str(), f.stats.time_ms.total,
-                (unsigned long long)loads, f.stats.cache.resident_mb, (unsigned long long)f.stats.tree_nodes,
-                f.stats.cache.page_table_kb, (unsigned long long)f.stats.samples);
-    js["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"converged_frame_ms", f.stats.time_ms.total},
-                           {"loads", loads}, {"resident_mb", f.stats.cache.resident_mb},
-                           {"tree_nodes", f.stats.tree_nodes}, {"page_table_kb", f.stats.cache.page_table_kb},
-                           {"samples", f.stats.samples}, {"first_frame_hit_rate", first_hit_rate}});
+// Cache hit rate per frame: distinct bricks the rays used that were resident, over those plus the
+// distinct bricks they missed.
+double hit_rate(const Stats& st) {
+  const double all = double(st.cache.hits) + double(st.cache.misses);
+  return all > 0.0 ? double(st.cache.hits) / all : 1.0;
+}
+
+// Everything a bench run shares, whichever path renders it.
+struct BenchRun {
+  const BenchOptions& o;
+  const CheckedOptions& checked;
+  const SourceScene& scene;
+  const CameraPath& path;
+  const std::vector<SkipMethod>& methods;
+  int warmup;
+  Backend backend;
+  RenderSettings rs;
+  const LabelSet* enabled() const { return scene.enabled ? &*scene.enabled : nullptr; }
+  std::unique_ptr<SceneRenderer> renderer() const {
+    return std::make_unique<SceneRenderer>(scene, o.render, checked, backend);
   }
-  js["median_converged_frame_ms"] = percentile(conv_ms, 0.5);
-  js["loads_per_frame"] = total_frames ? double(total_loads) / double(total_frames) : 0.0;
-  js["unconverged_views"] = unconverged;
-  std::printf("median converged frame %.1f ms, %.1f loads per frame, %d views did not converge\n",
-              percentile(conv_ms, 0.5), total_frames ? double(total_loads) / double(total_frames) : 0.0, unconverged);
-  if (!o.csv.empty()) write_file(o.csv, csv.str());
-  if (!o.json.empty()) write_file(o.json, js.dump(2) + "\n");
+};
+
+// Out of core: per method, a fresh cache renders every view of the path until it converges (no
+// misses, nothing pending) or --max-frames-per-view; reports frames to convergence per view, loads,
+// tree and page-table size.
+int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
+  const BenchOptions& o = b.o;
+  const OutOfCoreSettings os = out_of_core_settings(o.render);
+  std::printf("bench (out of core): %s, %dx%d, %d views x %zu methods, cache %zu MB, brick %d\n", b.scene.name.c_str(),
+              b.rs.width, b.rs.height, b.path.frames, b.methods.size(), os.cache_mb, os.brick);
+  nlohmann::json js;
+  js["volume"] = b.scene.name;
+  std::ostringstream csv;
+  csv << "method,view,frame,total_ms,raycast_ms,lists_ms,loads,hits,misses,hit_rate,pending,resident_mb,"
+         "tree_nodes,page_table_kb,samples\n";
+  for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
+    const char* method = to_string(b.methods[mi]);
+    b.rs.method = b.methods[mi];
+    std::unique_ptr<SceneRenderer> renderer = mi == 0 ? std::move(first) : b.renderer();
+    for (int w = 0; w < b.warmup; ++w) renderer->render(b.scene.tf, b.enabled(), b.path.at(0), b.rs);
+    std::printf("%s\n%5s %9s %12s %10s %11s %10s %12s %11s\n", method, "view", "frames", "converged ms", "loads",
+                "resident MB", "tree nodes", "page table KB", "samples");
+    nlohmann::json& jm = js["methods"][method];
+    jm["views"] = nlohmann::json::array();
+    std::vector<double> conv_ms;
+    int unconverged = 0;
+    std::uint64_t total_loads = 0, total_frames = 0;
+    for (int v = 0; v < b.path.frames; ++v) {
+      Frame f;
+      int n = 0;
+      std::uint64_t loads = 0;
+      double first_hit_rate = 1.0;
+      while (n < o.max_frames_per_view) {
+        f = renderer->render(b.scene.tf, b.enabled(), b.path.at(v), b.rs);
+        ++n;
+        loads += f.stats.cache.loads;
+        if (n == 1) first_hit_rate = hit_rate(f.stats);
+        csv << method << ',' << v << ',' << n << ',' << f.stats.time_ms.total << ',' << f.stats.time_ms.raycast << ','
+            << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.hits << ','
+            << f.stats.cache.misses << ',' << hit_rate(f.stats) << ',' << f.stats.cache.pending << ','
+            << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ',' << f.stats.cache.page_table_kb << ','
+            << f.stats.samples << '\n';
+        if (renderer->out_of_core()->converged()) break;
+      }
+      total_loads += loads;
+      total_frames += std::uint64_t(n);
+      const bool ok = renderer->out_of_core()->converged();
+      unconverged += ok ? 0 : 1;
+      if (ok) conv_ms.push_back(f.stats.time_ms.total);
+      std::printf("%5d %9s %12.1f %10llu %11.1f %10llu %12.1f %11llu\n", v,
+                  ok ? std::to_string(n).c_str() : (">" + std::to_string(n)).c_str(), f.stats.time_ms.total,
+                  (unsigned long long)loads, f.stats.cache.resident_mb, (unsigned long long)f.stats.tree_nodes,
+                  f.stats.cache.page_table_kb, (unsigned long long)f.stats.samples);
+      jm["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"converged_frame_ms", f.stats.time_ms.total},
+                             {"loads", loads}, {"resident_mb", f.stats.cache.resident_mb},
+                             {"tree_nodes", f.stats.tree_nodes}, {"page_table_kb", f.stats.cache.page_table_kb},
+                             {"samples", f.stats.samples}, {"first_frame_hit_rate", first_hit_rate}});
+    }
+    const double per_frame = total_frames ? double(total_loads) / double(total_frames) : 0.0;
+    jm["median_converged_frame_ms"] = percentile(conv_ms, 0.5);
+    jm["loads_per_frame"] = per_frame;
+    jm["unconverged_views"] = unconverged;
+    std::printf("%s: median converged frame %.1f ms, %.1f loads per frame, %d views did not converge\n", method,
+                percentile(conv_ms, 0.5), per_frame, unconverged);
+  }
+  if (!o.csv.empty()) write_file_atomic(o.csv, csv.str());
+  if (!o.json.empty()) write_file_atomic(o.json, js.dump(2) + "\n");
   return 0;
 }
 
-int run_bench(const BenchOptions& o) {
-  RenderSettings rs = make_render_settings(o.size, o.mode, "sparseleap", "image", o.step, o.ert, o.block, false);
-  const std::vector<SkipMethod> methods = parse_methods(o.methods);
-  if (o.warmup < 0 || o.warmup > 100) throw InputError("--warmup", "must be between 0 and 100");
-  if (!o.csv.empty()) check_output_prefix(o.csv);
-  if (!o.json.empty()) check_output_prefix(o.json);
-  std::unique_ptr<tbb::global_control> threads;
-  if (o.threads > 0) {
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
-  }
-
-  if (is_procedural_spec(o.scene.volume) || o.cache_mb > 0) return run_bench_out_of_core(o, rs);
-  LoadedScene ls = load_scene(o.scene);
-  rs.iso = std::isnan(o.iso) ? (ls.volume.type() == VoxelType::U8 ? 128.0f : 0.5f * (ls.tf.vmin() + ls.tf.vmax())) : o.iso;
-  CameraPath path;
-  if (!o.path.empty()) {
-    path = load_camera_path(o.path);
-  } else {
-    if (o.orbit < 1 || o.orbit > 100000) throw InputError("--orbit", "must be between 1 and 100000");
-    path = orbit_path(ls.volume.desc().extent(), o.orbit);
-  }
-  const TransferFunction dimmer = ls.tf.scaled_opacity(0.8f);  // "w/o rasterization" frames
-  Scene scene;
-  scene.volume = &ls.volume;
-  scene.labels = ls.labels.empty() ? nullptr : &ls.labels;
-  scene.tf = &ls.tf;
-  scene.enabled = ls.enabled ? &*ls.enabled : nullptr;
-  scene.camera = path.at(0);
-  validate(scene, rs);
-  const ListSource lists = parse_list_source(o.lists);
-  const Backend backend = choose_backend(o.backend);
-
+// In core: per method a fresh renderer replays the path; every view is rendered twice, once with its
+// lists rebuilt and once with only the opacity scaled (the lists reused: the paper's "w/o
+// rasterization").
+int bench_in_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
+  const BenchOptions& o = b.o;
+  const TransferFunction dimmer = b.scene.tf.scaled_opacity(0.8f);
   const bool tty = ::isatty(2);
-  std::printf("bench: %s, %dx%d, %s, %d frames x %zu methods%s\n", ls.name.c_str(), rs.width, rs.height,
-              to_string(rs.mode), path.frames, methods.size(),
-              ls.enabled ? (", " + std::to_string(ls.enabled->count()) + " labels enabled").c_str() : "");
-  std::vector<std::vector<FrameRecord>> records(methods.size());
-  for (std::size_t mi = 0; mi < methods.size(); ++mi) {
-    rs.method = methods[mi];
-    FrameRenderer renderer(backend, lists);
-    scene.camera = path.at(0);
-    scene.tf = &ls.tf;
-    for (int w = 0; w < o.warmup; ++w) renderer.render(scene, rs);
-    for (int f = 0; f < path.frames; ++f) {
-      scene.camera = path.at(f);
-      scene.tf = &ls.tf;
-      renderer.invalidate_lists();  // a rasterization frame always rebuilds its lists
-      records[mi].push_back({f, true, renderer.render(scene, rs).stats});
+  std::printf("bench: %s, %dx%d, %s, %d frames x %zu methods%s\n", b.scene.name.c_str(), b.rs.width, b.rs.height,
+              to_string(b.rs.mode), b.path.frames, b.methods.size(),
+              b.scene.enabled ? (", " + std::to_string(b.scene.enabled->count()) + " labels enabled").c_str() : "");
+  std::vector<std::vector<FrameRecord>> records(b.methods.size());
+  for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
+    b.rs.method = b.methods[mi];
+    std::unique_ptr<SceneRenderer> renderer = mi == 0 ? std::move(first) : b.renderer();
+    for (int w = 0; w < b.warmup; ++w) renderer->render(b.scene.tf, b.enabled(), b.path.at(0), b.rs);
+    for (int f = 0; f < b.path.frames; ++f) {
+      renderer->invalidate_lists();  // a rasterization frame always rebuilds its lists
+      records[mi].push_back({f, true, renderer->render(b.scene.tf, b.enabled(), b.path.at(f), b.rs).stats});
       // Same view, opacity scaled: the block classes are unchanged, so the lists are reused.
-      scene.tf = &dimmer;
-      records[mi].push_back({f, false, renderer.render(scene, rs).stats});
+      records[mi].push_back({f, false, renderer->render(dimmer, b.enabled(), b.path.at(f), b.rs).stats});
       if (tty) {
-        std::fprintf(stderr, "\r  %-10s frame %d/%d  %.1f ms   ", to_string(rs.method), f + 1, path.frames,
+        std::fprintf(stderr, "\r  %-10s frame %d/%d  %.1f ms   ", to_string(b.rs.method), f + 1, b.path.frames,
                      records[mi][records[mi].size() - 2].stats.time_ms.total);
       }
     }
@@ -264,56 +218,88 @@ int run_bench(const BenchOptions& o) {
   std::vector<Summary> sums;
   for (const auto& r : records) sums.push_back(summarize(r));
   double none_median = 0;
-  for (std::size_t mi = 0; mi < methods.size(); ++mi) {
-    if (methods[mi] == SkipMethod::None) none_median = sums[mi].median_ms;
+  for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
+    if (b.methods[mi] == SkipMethod::None) none_median = sums[mi].median_ms;
   }
   std::printf("%-11s %10s %10s %12s %9s %13s %11s %10s %8s %6s\n", "method", "median ms", "p95 ms", "w/o rast ms",
               "speed-up", "samples/frame", "efficiency", "lists ms", "dc avg", "dc max");
   nlohmann::json js;
-  js["volume"] = ls.name;
-  js["width"] = rs.width;
-  js["height"] = rs.height;
-  js["mode"] = to_string(rs.mode);
-  js["frames"] = path.frames;
-  for (std::size_t mi = 0; mi < methods.size(); ++mi) {
+  js["volume"] = b.scene.name;
+  js["width"] = b.rs.width;
+  js["height"] = b.rs.height;
+  js["mode"] = to_string(b.rs.mode);
+  js["frames"] = b.path.frames;
+  for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
     const Summary& s = sums[mi];
     const double speedup = none_median > 0 && s.median_ms > 0 ? none_median / s.median_ms : 0.0;
     const double eff = s.samples ? double(s.useful) / double(s.samples) : 0.0;
-    std::printf("%-11s %10.1f %10.1f %12.1f %9s %13.3g %10.2f%% %10.1f %8.2f %6u\n", to_string(methods[mi]),
+    std::printf("%-11s %10.1f %10.1f %12.1f %9s %13.3g %10.2f%% %10.1f %8.2f %6u\n", to_string(b.methods[mi]),
                 s.median_ms, s.p95_ms, s.median_norast_ms,
                 none_median > 0 ? (std::to_string(speedup).substr(0, 5) + "x").c_str() : "-",
-                double(s.samples) / path.frames, 100.0 * eff, s.median_lists_ms, s.dc_avg, s.dc_max);
-    js["methods"][to_string(methods[mi])] = {{"median_ms", s.median_ms},
-                                             {"p95_ms", s.p95_ms},
-                                             {"median_ms_without_rasterization", s.median_norast_ms},
-                                             {"median_raycast_ms", s.median_raycast_ms},
-                                             {"median_lists_ms", s.median_lists_ms},
-                                             {"speedup_vs_none", speedup},
-                                             {"samples", s.samples},
-                                             {"useful_samples", s.useful},
-                                             {"sample_efficiency", eff},
-                                             {"occupancy_misses", s.misses},
-                                             {"depth_complexity_avg", s.dc_avg},
-                                             {"depth_complexity_max", s.dc_max}};
+                double(s.samples) / b.path.frames, 100.0 * eff, s.median_lists_ms, s.dc_avg, s.dc_max);
+    js["methods"][to_string(b.methods[mi])] = {{"median_ms", s.median_ms},
+                                               {"p95_ms", s.p95_ms},
+                                               {"median_ms_without_rasterization", s.median_norast_ms},
+                                               {"median_raycast_ms", s.median_raycast_ms},
+                                               {"median_lists_ms", s.median_lists_ms},
+                                               {"speedup_vs_none", speedup},
+                                               {"samples", s.samples},
+                                               {"useful_samples", s.useful},
+                                               {"sample_efficiency", eff},
+                                               {"occupancy_misses", s.misses},
+                                               {"depth_complexity_avg", s.dc_avg},
+                                               {"depth_complexity_max", s.dc_max}};
   }
   if (!o.csv.empty()) {
     std::ostringstream csv;
     csv << "method,frame,rasterization,total_ms,metadata_ms,tree_ms,geometry_ms,order_ms,lists_ms,raycast_ms,"
            "samples,useful_samples,depth_complexity_avg,depth_complexity_max,boxes,events,occupancy_misses\n";
-    for (std::size_t mi = 0; mi < methods.size(); ++mi) {
+    for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
       for (const FrameRecord& r : records[mi]) {
         const Stats& s = r.stats;
-        csv << to_string(methods[mi]) << ',' << r.frame << ',' << (r.rasterization ? 1 : 0) << ','
+        csv << to_string(b.methods[mi]) << ',' << r.frame << ',' << (r.rasterization ? 1 : 0) << ','
             << s.time_ms.total << ',' << s.time_ms.metadata << ',' << s.time_ms.tree << ',' << s.time_ms.geometry
             << ',' << s.time_ms.order << ',' << s.time_ms.lists << ',' << s.time_ms.raycast << ',' << s.samples
             << ',' << s.useful_samples << ',' << s.depth_complexity_avg << ',' << s.depth_complexity_max << ','
             << s.boxes << ',' << s.events << ',' << s.occupancy_misses << '\n';
       }
     }
-    write_file(o.csv, csv.str());
+    write_file_atomic(o.csv, csv.str());
   }
-  if (!o.json.empty()) write_file(o.json, js.dump(2) + "\n");
+  if (!o.json.empty()) write_file_atomic(o.json, js.dump(2) + "\n");
   return 0;
+}
+
+int run_bench(const BenchOptions& o) {
+  const RenderOptions& ro = o.render;
+  const CheckedOptions checked = check_render_options(ro);
+  const bool ooc = ro.out_of_core();
+  const std::vector<SkipMethod> methods = parse_methods(ooc && !o.methods_given ? "sparseleap" : o.methods);
+  if (ooc) {
+    for (SkipMethod m : methods) {
+      if (!out_of_core_method(m)) throw InputError("--methods", "out-of-core rendering supports sparseleap and none");
+    }
+  }
+  if (o.warmup < 0 || o.warmup > 100) throw InputError("--warmup", "must be between 0 and 100");
+  if (o.path.empty() && (o.orbit < 1 || o.orbit > 100000)) throw InputError("--orbit", "must be between 1 and 100000");
+  if (o.max_frames_per_view < 1 || o.max_frames_per_view > 100000) {
+    throw InputError("--max-frames-per-view", "must be between 1 and 100000");
+  }
+  if (!o.csv.empty()) check_output_prefix(o.csv);
+  if (!o.json.empty()) check_output_prefix(o.json);
+  const ThreadLimit threads(ro.threads);
+
+  const SourceScene scene = load_source_scene(ro.scene, ooc);
+  RenderSettings rs = checked.settings;
+  complete_settings(ro, scene, rs);
+  const CameraPath path = o.path.empty() ? orbit_path(scene.desc.extent(), o.orbit) : load_camera_path(o.path);
+  std::string notice;  // printed once the first renderer accepted the settings: bad input stays one line
+  const Backend backend = choose_backend(ro.backend, &notice);
+  BenchRun b{o, checked, scene, path, methods, ooc && !o.warmup_given ? 0 : o.warmup, backend, rs};
+  b.rs.method = methods[0];
+  std::unique_ptr<SceneRenderer> first = b.renderer();
+  if (!notice.empty()) std::fputs(notice.c_str(), stderr);
+  return ooc ? bench_out_of_core(b, std::move(first)) : bench_in_core(b, std::move(first));
 }
 
 }  // namespace
@@ -321,28 +307,26 @@ int run_bench(const BenchOptions& o) {
 Runner add_bench_command(CLI::App& app) {
   auto o = std::make_shared<BenchOptions>();
   CLI::App* c = app.add_subcommand("bench", "Replay a camera path once per method; summary table, CSV and JSON");
-  add_scene_options(*c, o->scene, false);
+  o->render.size = "512x512";
+  o->render.backend = "cpu";
+  add_render_options(*c, o->render, Command::Bench);
   c->add_option("--path", o->path, "Camera path JSON (keyframes); default: an orbit");
   c->add_option("--orbit", o->orbit, "Frames of the generated orbit")->capture_default_str();
-  c->add_option("--methods", o->methods, "Comma-separated methods")->capture_default_str();
-  c->add_option("--size", o->size, "Image size WxH")->capture_default_str();
-  c->add_option("--mode", o->mode, "dvr, mip, iso or labels")->capture_default_str();
-  c->add_option("--iso", o->iso, "Iso value (iso mode)");
-  c->add_option("--step", o->step, "Sample distance in units of the smallest spacing")->capture_default_str();
-  c->add_option("--block", o->block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
-  c->add_flag("--ert", o->ert, "Early ray termination");
-  c->add_option("--warmup", o->warmup, "Unrecorded frames before each method")->capture_default_str();
-  c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
-  c->add_option("--lists", o->lists, "Segment-list builder: cpu or gl (OpenGL, headless EGL)")->capture_default_str();
-  c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
-  c->add_option("--csv", o->csv, "Per-frame CSV (a row per method and frame)");
-  c->add_option("--cache-mb", o->cache_mb, "Out of core with this cache budget (sparseleap only; default for procedural 1024)");
-  c->add_option("--brick", o->brick, "Brick payload edge (out of core)")->capture_default_str();
-  c->add_option("--lod-bias", o->lod_bias, "Level-of-detail bias (out of core)")->capture_default_str();
+  CLI::Option* methods =
+      c->add_option("--methods", o->methods, "Comma-separated methods (out of core: sparseleap and none; default there sparseleap)")
+          ->capture_default_str();
+  CLI::Option* warmup =
+      c->add_option("--warmup", o->warmup, "Unrecorded frames of the first view before each method (out of core: default 0)")
+          ->capture_default_str();
+  c->add_option("--csv", o->csv, "Per-frame CSV (a row per method and frame; out of core per method, view and frame)");
+  c->add_option("--json", o->json, "Summary JSON");
   c->add_option("--max-frames-per-view", o->max_frames_per_view, "Out of core: frames per view at most")
       ->capture_default_str();
-  c->add_option("--json", o->json, "Summary JSON");
-  return [o] { return run_bench(*o); };
+  return [o, methods, warmup] {
+    o->methods_given = methods->count() > 0;
+    o->warmup_given = warmup->count() > 0;
+    return run_bench(*o);
+  };
 }
 
 }  // namespace sl::app

@@ -5,6 +5,7 @@
 
 #include "apps/commands.h"
 #include "cache/formats/nrrd.h"
+#include "cache/formats/volume_file.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
 #include "core/error.h"
@@ -83,19 +84,19 @@ Runner add_info_command(CLI::App& app) {
   auto path = std::make_shared<std::string>();
   auto full = std::make_shared<bool>(false);
   CLI::App* c = app.add_subcommand("info", "Print dims, type, spacing and value range of a volume or OME-Zarr store");
-  c->add_option("path", *path, "Volume file (NRRD) or OME-Zarr store (.zarr directory)")->required();
+  c->add_option("path", *path, "Volume file (NRRD, NIfTI-1, TIFF stack) or OME-Zarr store (.zarr directory)")->required();
   c->add_flag("--stats", *full, "Also read the data and print the value range (and a store's max label)");
   return [path, full] {
     if (zarr::is_zarr_path(*path)) {
       print_zarr(*path, *full);
       return 0;
     }
-    const VolumeDesc d = read_nrrd_header(*path);
+    const VolumeDesc d = read_volume_file_desc(*path);
     std::printf("%s\n  dims    %d x %d x %d\n  type    %s\n  spacing %g %g %g\n  size    %.1f MiB\n",
                 path->c_str(), d.dims.x, d.dims.y, d.dims.z, to_string(d.type), d.spacing.x, d.spacing.y,
                 d.spacing.z, double(d.byte_size()) / (1024.0 * 1024.0));
     if (*full) {
-      const Volume v = read_nrrd(*path);
+      const Volume v = read_volume_file(*path);
       const vec2 r = value_range(v);
       std::printf("  range   %g .. %g\n", r.x, r.y);
     }

@@ -1,12 +1,12 @@
 #include "apps/scene_loader.h"
 
-#include <CLI/CLI.hpp>
 #include <cstdio>
 #include <regex>
 
 #include "cache/synthetic/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "cache/formats/nrrd.h"
+#include "cache/formats/volume_file.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
 #include "core/error.h"
@@ -14,17 +14,6 @@
 #include <unistd.h>
 
 namespace sl::app {
-
-void parse_size(const std::string& s, int& w, int& h) {
-  static const std::regex re("^([0-9]{1,6})[xX]([0-9]{1,6})$");
-  std::smatch m;
-  if (!std::regex_match(s, m, re)) throw InputError("--size", "expected WxH, e.g. 1024x768, got '" + s + "'");
-  w = std::stoi(m[1]);
-  h = std::stoi(m[2]);
-  if (w < 1 || h < 1 || w > 16384 || h > 16384) {
-    throw InputError("--size", "width and height must be between 1 and 16384");
-  }
-}
 
 namespace {
 
@@ -40,10 +29,10 @@ GeneratedVolume load_builtin(const std::string& spec) {
   return generate_volume(m[1], dims, seed);
 }
 
-// A volume file: NRRD, or level 0 of an OME-Zarr store read whole (in core). A store bigger than half
+// A volume file (NRRD, NIfTI-1, TIFF stack), or level 0 of an OME-Zarr store read whole (in core). A store bigger than half
 // of this machine's memory is refused with the hint to stream it (out of core) instead.
 Volume read_volume_file(const std::string& path, bool store_labels = false) {
-  if (!zarr::is_zarr_path(path)) return read_nrrd(path);
+  if (!zarr::is_zarr_path(path)) return sl::read_volume_file(path);
   const zarr::StoreInfo info = zarr::open_store(path);
   const VolumeDesc& d = store_labels && info.labels ? info.labels->desc : info.image.desc;
   const double phys = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
@@ -54,89 +43,16 @@ Volume read_volume_file(const std::string& path, bool store_labels = false) {
   return read_zarr_volume(path, store_labels);
 }
 
-}  // namespace
-
-void add_scene_options(CLI::App& c, SceneOptions& s, bool camera) {
-  c.add_option("--volume", s.volume,
-               "Volume: NRRD (.nrrd/.nhdr), OME-Zarr store (.zarr; out of core with --cache-mb), "
-               "builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
-  c.add_option("--labels", s.labels,
-               "Label volume (NRRD or .zarr store, integer type, same dims); a .zarr volume's own labels/ group is "
-               "used when this is not given");
-  c.add_option("--tf", s.tf, "Transfer function JSON");
-  if (camera) c.add_option("--camera", s.camera, "Camera JSON");
-  c.add_option("--enable", s.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
-}
-
-RenderSettings make_render_settings(const std::string& size, const std::string& mode, const std::string& method,
-                                    const std::string& view, float step, bool ert, int block, bool boxes) {
-  RenderSettings rs;
-  parse_size(size, rs.width, rs.height);
-  rs.mode = parse_render_mode(mode);
-  rs.method = parse_skip_method(method);
-  rs.step = step;
-  rs.ert = ert;
-  rs.block = block;
-  rs.boxes_overlay = boxes;
-  if (view == "depth-complexity") {
-    rs.depth_complexity_view = true;
-  } else if (view != "image") {
-    throw InputError("--view", "unknown view '" + view + "' (expected image or depth-complexity)");
-  }
-  return rs;
-}
-
-SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
-  SourceScene s;
-  if (out_of_core && zarr::is_zarr_path(o.volume)) {
-    // An OME-Zarr store streams chunk by chunk through the brick loader (DESIGN.md §4).
-    if (!o.labels.empty() && !zarr::is_zarr_path(o.labels)) {
-      throw InputError("--labels", "a .zarr volume rendered out of core takes its labels from a .zarr store");
-    }
-    auto src = std::make_shared<ZarrVolumeSource>(o.volume, o.labels);
-    s.source = src;
-    s.name = o.volume;
-    s.desc = src->desc();
-    s.label_count = src->max_label();
-    if (!o.tf.empty()) {
-      s.tf = load_transfer_function(o.tf);
-    } else if (s.desc.type == VoxelType::U8) {
-      s.tf = default_transfer_function(0.0f, 255.0f);
-    } else {
-      const vec2 r = src->value_range_estimate();
-      s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
-    }
-    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
-    if (!o.enable.empty()) {
-      if (!src->has_labels()) throw InputError("--enable", "needs a label volume (the store's labels/ or --labels)");
-      s.enabled = parse_enable_spec(o.enable, s.label_count);
-    }
-    return s;
-  }
-  if (is_procedural_spec(o.volume)) {
-    if (!o.labels.empty()) throw InputError("--labels", "a procedural volume has its own labels");
-    if (!o.enable.empty()) {
-      throw InputError("--enable", "label subsets of procedural volumes are not supported (their ids are hashed)");
-    }
-    s.source = parse_volume_spec(o.volume);
-    s.name = o.volume;
-    s.desc = s.source->desc();
-    s.tf = o.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.tf);
-    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
-    return s;
-  }
-  LoadedScene ls = load_scene(o);
-  s.name = ls.name;
-  s.desc = ls.volume.desc();
-  s.label_count = ls.label_count;
-  s.tf = std::move(ls.tf);
-  s.camera = ls.camera;
-  s.enabled = std::move(ls.enabled);
-  s.volume = std::make_shared<const Volume>(std::move(ls.volume));
-  if (!ls.labels.empty()) s.labels = std::make_shared<const Volume>(std::move(ls.labels));
-  if (out_of_core) s.source = std::make_shared<MemoryVolumeSource>(s.volume, s.labels, s.name);
-  return s;
-}
+// A scene held in memory (in core, or out of core from memory).
+struct LoadedScene {
+  Volume volume;
+  Volume labels;  // empty() if none
+  std::uint32_t label_count = 0;
+  TransferFunction tf;
+  Camera camera;
+  std::optional<LabelSet> enabled;
+  std::string name;  // what was loaded, for messages
+};
 
 LoadedScene load_scene(const SceneOptions& o) {
   LoadedScene s;
@@ -177,6 +93,62 @@ LoadedScene load_scene(const SceneOptions& o) {
     if (s.labels.empty()) throw InputError("--enable", "needs a label volume (--labels)");
     s.enabled = parse_enable_spec(o.enable, s.label_count);
   }
+  return s;
+}
+
+}  // namespace
+
+SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
+  SourceScene s;
+  if (out_of_core && zarr::is_zarr_path(o.volume)) {
+    // An OME-Zarr store streams chunk by chunk through the brick loader (DESIGN.md §4).
+    if (!o.labels.empty() && !zarr::is_zarr_path(o.labels)) {
+      throw InputError("--labels", "a .zarr volume rendered out of core takes its labels from a .zarr store");
+    }
+    auto src = std::make_shared<ZarrVolumeSource>(o.volume, o.labels);
+    s.source = src;
+    s.name = o.volume;
+    s.desc = src->desc();
+    s.label_count = src->max_label();
+    s.labelled = src->has_labels();
+    if (!o.tf.empty()) {
+      s.tf = load_transfer_function(o.tf);
+    } else if (s.desc.type == VoxelType::U8) {
+      s.tf = default_transfer_function(0.0f, 255.0f);
+    } else {
+      const vec2 r = src->value_range_estimate();
+      s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+    }
+    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
+    if (!o.enable.empty()) {
+      if (!src->has_labels()) throw InputError("--enable", "needs a label volume (the store's labels/ or --labels)");
+      s.enabled = parse_enable_spec(o.enable, s.label_count);
+    }
+    return s;
+  }
+  if (is_procedural_spec(o.volume)) {
+    if (!o.labels.empty()) throw InputError("--labels", "a procedural volume has its own labels");
+    if (!o.enable.empty()) {
+      throw InputError("--enable", "label subsets of procedural volumes are not supported (their ids are hashed)");
+    }
+    s.source = parse_volume_spec(o.volume);
+    s.name = o.volume;
+    s.desc = s.source->desc();
+    s.tf = o.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.tf);
+    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
+    return s;
+  }
+  LoadedScene ls = load_scene(o);
+  s.name = ls.name;
+  s.desc = ls.volume.desc();
+  s.label_count = ls.label_count;
+  s.tf = std::move(ls.tf);
+  s.camera = ls.camera;
+  s.enabled = std::move(ls.enabled);
+  s.volume = std::make_shared<const Volume>(std::move(ls.volume));
+  if (!ls.labels.empty()) s.labels = std::make_shared<const Volume>(std::move(ls.labels));
+  s.labelled = s.labels != nullptr;
+  if (out_of_core) s.source = std::make_shared<MemoryVolumeSource>(s.volume, s.labels, s.name);
   return s;
 }
 

@@ -1,5 +1,6 @@
 // Loading what a frame needs (volume, labels, transfer function, camera) from the command line's
-// options, shared by render, bench and view.
+// scene options (registered with the other render options, apps/render_options.h), shared by render,
+// bench and view.
 #pragma once
 
 #include <memory>
@@ -8,14 +9,9 @@
 
 #include "cache/volume_source.h"
 #include "core/camera.h"
-#include "core/frame.h"
 #include "core/labels.h"
 #include "core/transfer_function.h"
 #include "core/volume.h"
-
-namespace CLI {
-class App;
-}
 
 namespace sl::app {
 
@@ -26,32 +22,6 @@ struct SceneOptions {
   std::string camera;   // camera JSON; empty = default view
   std::string enable;   // enabled-label spec; empty = no label mask
 };
-
-struct LoadedScene {
-  Volume volume;
-  Volume labels;        // empty() if none
-  std::uint32_t label_count = 0;
-  TransferFunction tf;
-  Camera camera;
-  std::optional<LabelSet> enabled;
-  std::string name;     // what was loaded, for messages
-};
-
-// Registers --volume, --labels, --tf, --enable (and --camera when `camera`) on a subcommand: the
-// scene options render, bench and view share.
-void add_scene_options(CLI::App& c, SceneOptions& s, bool camera);
-
-// Built-in data set: neurites, generated in memory (no file needed).
-constexpr int kBuiltinSize = 256;
-
-LoadedScene load_scene(const SceneOptions& o);
-
-// Parses "WxH"; InputError("--size", ...) otherwise.
-void parse_size(const std::string& s, int& w, int& h);
-
-// The frame options render, bench and view share, checked before any (slow) data load.
-RenderSettings make_render_settings(const std::string& size, const std::string& mode, const std::string& method,
-                                    const std::string& view, float step, bool ert, int block, bool boxes);
 
 // A scene whose data may also be read out of core: a volume in memory (rendered in core, or through
 // the brick cache when `out_of_core`), or a procedural source that exists only as bricks (always out
@@ -66,8 +36,12 @@ struct SourceScene {
   Camera camera;
   std::optional<LabelSet> enabled;
   std::shared_ptr<const VolumeSource> source;  // set when rendering out of core
+  bool labelled = false;  // a label volume whose ids --enable and labels mode can name
   bool out_of_core() const { return source != nullptr; }
 };
 SourceScene load_source_scene(const SceneOptions& o, bool out_of_core);
+
+// Built-in data set: neurites, generated in memory (no file needed).
+constexpr int kBuiltinSize = 256;
 
 }  // namespace sl::app

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "apps/commands.h"
+#include "apps/render_options.h"
 #ifdef SL_HAVE_VIEWER
 #include "apps/viewer/ui/viewer.h"
 #endif
@@ -17,24 +18,10 @@ Runner add_view_command(CLI::App& app) {
   CLI::App* c = app.add_subcommand(
       "view", "Interactive window: orbit/pan/zoom, method and mode switches, b-box and depth-complexity views, "
               "transfer-function and label editing, stats, camera-path recording");
-  add_scene_options(*c, o->scene, true);
-  c->add_option("--size", o->size, "Rendered canvas WxH (the window adds a control panel at its left)")->capture_default_str();
-  c->add_option("--method", o->method, "none, bbox, octree or sparseleap (keys 1-4)")->capture_default_str();
-  c->add_option("--mode", o->mode, "dvr, mip, iso or labels (key M cycles)")->capture_default_str();
-  c->add_option("--view", o->view, "image or depth-complexity (key D)")->capture_default_str();
-  c->add_flag("--boxes", o->boxes, "Start with the occupancy-box overlay on (key B)");
-  c->add_option("--iso", o->iso, "Iso value; default 128 for u8, mid-range otherwise");
-  c->add_option("--step", o->step, "Sample distance in units of the smallest spacing")->capture_default_str();
-  c->add_option("--block", o->block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
-  c->add_flag("--ert", o->ert, "Early ray termination at opacity 0.99");
+  o->render.size = "800x600";
+  add_render_options(*c, o->render, Command::View);
   c->add_option("--scale", o->scale, "Render resolution relative to the canvas, (0, 1]")->capture_default_str();
   c->add_option("--preview-scale", o->preview_scale, "Extra resolution factor while dragging, (0, 1]")->capture_default_str();
-  c->add_option("--backend", o->backend, "auto, cpu or cuda")->capture_default_str();
-  c->add_option("--cache-mb", o->cache_mb, "Out of core with this brick-cache budget: bricks stream in and the view refines "
-                "(default for procedural: 1024)");
-  c->add_option("--brick", o->brick, "Brick payload edge: 8, 16, 32 or 64 (out of core)")->capture_default_str();
-  c->add_option("--lod-bias", o->lod_bias, "Level-of-detail bias, >1 coarser (out of core)")->capture_default_str();
-  c->add_option("--threads", o->threads, "CPU threads (0 = all)")->capture_default_str();
   c->add_option("--screenshot", o->screenshot, "Save the window (with the UI) to this PNG after --frames frames, then exit");
   c->add_option("--frames", o->frames, "Render this many frames, then exit (default 3 with --screenshot)");
   c->add_option("--spin", o->spin, "Scripted runs: orbit this many degrees per frame (times moving views)");

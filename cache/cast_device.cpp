@@ -55,23 +55,19 @@ void cast_typed(const CastParams& p, const RayGenerator& gen, const Box3& vbox, 
 template <class T>
 void cast_labels_typed(const CastParams& p, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,
                        std::uint32_t n, const VirtualMemoryView& vm, Frame& f) {
-  switch (vm.has_labels ? vm.cache.label_type : VoxelType::U8) {
-    case VoxelType::U8: cast_typed<T, std::uint8_t>(p, gen, vbox, skip, n, vm, f); break;
-    case VoxelType::U16: cast_typed<T, std::uint16_t>(p, gen, vbox, skip, n, vm, f); break;
-    default: cast_typed<T, std::uint32_t>(p, gen, vbox, skip, n, vm, f); break;
-  }
+  // The cache holds integer labels only (a float label volume is refused when it is opened).
+  dispatch_label(
+      vm.has_labels ? vm.cache.label_type : VoxelType::U8,
+      [&](auto tag) { cast_typed<T, decltype(tag)>(p, gen, vbox, skip, n, vm, f); },
+      [&] { cast_typed<T, std::uint32_t>(p, gen, vbox, skip, n, vm, f); });
 }
 
 }  // namespace
 
 void cast_virtual_frame(const CastParams& p, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,
                         std::uint32_t n, const VirtualMemoryView& vm, Frame& f) {
-  switch (vm.cache.voxel_type) {
-    case VoxelType::U8: cast_labels_typed<std::uint8_t>(p, gen, vbox, skip, n, vm, f); break;
-    case VoxelType::U16: cast_labels_typed<std::uint16_t>(p, gen, vbox, skip, n, vm, f); break;
-    case VoxelType::U32: cast_labels_typed<std::uint32_t>(p, gen, vbox, skip, n, vm, f); break;
-    case VoxelType::F32: cast_labels_typed<float>(p, gen, vbox, skip, n, vm, f); break;
-  }
+  dispatch_voxel(vm.cache.voxel_type,
+                 [&](auto tag) { cast_labels_typed<decltype(tag)>(p, gen, vbox, skip, n, vm, f); });
 }
 
 }  // namespace sl

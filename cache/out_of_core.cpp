@@ -424,14 +424,4 @@ void OutOfCoreRenderer::cast(const CastRequest& r, Frame& frame) {
   }
 }
 
-Frame render_frames(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSettings& s, int frames,
-                    const std::function<void(const Frame&)>& on_frame) {
-  Frame last;
-  for (int i = 0; i < frames; ++i) {
-    last = r.render(scene, s);
-    if (on_frame) on_frame(last);
-  }
-  return last;
-}
-
 }  // namespace sl

@@ -120,9 +120,4 @@ class OutOfCoreRenderer {
   std::vector<LoadedBrick> staged_;   // their buffers, recycled once uploaded
 };
 
-// Out-of-core rendering of one view for `frames` frames (the cache fills, the image converges);
-// returns the last frame. `on_frame` (optional) sees every frame.
-Frame render_frames(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSettings& s, int frames,
-                    const std::function<void(const Frame&)>& on_frame = {});
-
 }  // namespace sl

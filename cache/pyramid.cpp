@@ -4,6 +4,7 @@
 #include <cstring>
 
 #include "core/config.h"
+#include "core/voxel_dispatch.h"
 
 namespace sl {
 namespace {
@@ -76,21 +77,20 @@ void mode_rows(const T* src, ivec3 sd, T* dst, int z0, int z1) {
 }  // namespace
 
 void reduce_mean(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1) {
-  switch (t) {
-    case VoxelType::U8: mean_rows(reinterpret_cast<const std::uint8_t*>(src), sd, reinterpret_cast<std::uint8_t*>(dst), z0, z1); break;
-    case VoxelType::U16: mean_rows(reinterpret_cast<const std::uint16_t*>(src), sd, reinterpret_cast<std::uint16_t*>(dst), z0, z1); break;
-    case VoxelType::U32: mean_rows(reinterpret_cast<const std::uint32_t*>(src), sd, reinterpret_cast<std::uint32_t*>(dst), z0, z1); break;
-    case VoxelType::F32: mean_rows(reinterpret_cast<const float*>(src), sd, reinterpret_cast<float*>(dst), z0, z1); break;
-  }
+  dispatch_voxel(t, [&](auto tag) {
+    using T = decltype(tag);
+    mean_rows(reinterpret_cast<const T*>(src), sd, reinterpret_cast<T*>(dst), z0, z1);
+  });
 }
 
 void reduce_mode(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1) {
-  switch (t) {
-    case VoxelType::U8: mode_rows(reinterpret_cast<const std::uint8_t*>(src), sd, reinterpret_cast<std::uint8_t*>(dst), z0, z1); break;
-    case VoxelType::U16: mode_rows(reinterpret_cast<const std::uint16_t*>(src), sd, reinterpret_cast<std::uint16_t*>(dst), z0, z1); break;
-    case VoxelType::U32: mode_rows(reinterpret_cast<const std::uint32_t*>(src), sd, reinterpret_cast<std::uint32_t*>(dst), z0, z1); break;
-    case VoxelType::F32: SL_CHECK(!"labels must be an integer type"); break;
-  }
+  dispatch_label(
+      t,
+      [&](auto tag) {
+        using T = decltype(tag);
+        mode_rows(reinterpret_cast<const T*>(src), sd, reinterpret_cast<T*>(dst), z0, z1);
+      },
+      [] { SL_CHECK(!"labels must be an integer type"); });
 }
 
 void brick_read_box(const BrickLayout& layout, BrickId id, ivec3& first, ivec3& dims) {

@@ -12,6 +12,7 @@
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
 #include "core/config.h"
+#include "core/gradient.h"
 #include "core/raycast.h"
 
 namespace sl {
@@ -97,12 +98,10 @@ struct VirtualSampler {
     return k.labels.label_at(p);
   }
 
+  // Central differences one voxel of the sampled level apart.
   SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing, const SampleContext& c) const {
-    const vec3 s = spacing * float(1 << c.level);
-    const vec3 hx(s.x, 0, 0), hy(0, s.y, 0), hz(0, 0, s.z);
-    return vec3((sample(p + hx, c) - sample(p - hx, c)) / (2.0f * s.x),
-                (sample(p + hy, c) - sample(p - hy, c)) / (2.0f * s.y),
-                (sample(p + hz, c) - sample(p - hz, c)) / (2.0f * s.z));
+    return central_difference_gradient(p, spacing * float(1 << c.level),
+                                       [this, &c](const vec3& q) { return sample(q, c); });
   }
 };
 

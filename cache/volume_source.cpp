@@ -1,11 +1,9 @@
 #include "cache/volume_source.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include "cache/pyramid.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl {
 namespace {
@@ -18,8 +16,8 @@ Volume reduce_level(const Volume& src, Reduce reduce) {
   d.dims = (d.dims + 1) / 2;
   d.spacing *= 2.0f;
   Volume dst(d, "pyramid");
-  tbb::parallel_for(tbb::blocked_range<int>(0, d.dims.z), [&](const tbb::blocked_range<int>& r) {
-    reduce(src.type(), src.data(), src.dims(), dst.data(), r.begin(), r.end());
+  parallel_for(0, d.dims.z, [&](int lo, int hi) {
+    reduce(src.type(), src.data(), src.dims(), dst.data(), lo, hi);
   });
   return dst;
 }
@@ -75,6 +73,5 @@ void MemoryVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::
     fill_brick(layout, id, lv.data(), ivec3(0), lv.dims(), voxel_size(lv.type()), out_labels);
   }
 }
-
 
 }  // namespace sl

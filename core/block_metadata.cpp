@@ -1,7 +1,7 @@
 #include "core/block_metadata.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
+#include "core/parallel.h"
+
 
 #include <algorithm>
 #include <atomic>
@@ -93,13 +93,10 @@ BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const Volum
   BlockMetadataTable t;
   t.grid = grid;
   t.blocks.resize(grid.block_count());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, t.blocks.size()),
-                    [&](const tbb::blocked_range<std::size_t>& r) {
-                      for (std::size_t i = r.begin(); i != r.end(); ++i) {
-                        const ivec3 b = grid.block_coord(i);
-                        t.blocks[i] = compute_block_metadata(grid, intensity, labels, b.x, b.y, b.z);
-                      }
-                    });
+  parallel_for(std::size_t(0), t.blocks.size(), [&](std::size_t i) {
+    const ivec3 b = grid.block_coord(i);
+    t.blocks[i] = compute_block_metadata(grid, intensity, labels, b.x, b.y, b.z);
+  });
   return t;
 }
 

@@ -87,15 +87,7 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
     detail::atomic_min(counters.dc_min, dc_min);
   });
   frame.stats.time_ms.raycast = timer.ms();
-  CastCounters c;
-  c.samples = counters.samples;
-  c.useful = counters.useful;
-  c.rays = counters.rays;
-  c.misses = counters.misses;
-  c.dc_sum = counters.dc_sum;
-  c.dc_max = counters.dc_max;
-  c.dc_min = counters.dc_min;
-  record_cast_counters(c, skip.method != SkipMethod::None, frame.stats);
+  record_cast_counters(CastCounters::from(counters), skip.method != SkipMethod::None, frame.stats);
 }
 
 }  // namespace sl

@@ -1,7 +1,6 @@
 #include "core/culling.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
+#include "core/parallel.h"
 
 #include <cstring>
 
@@ -52,9 +51,7 @@ std::uint64_t cull_key(const CullParams& p) {
 
 std::vector<OccupancyClass> classify_blocks(const BlockMetadataTable& table, const CullParams& p) {
   std::vector<OccupancyClass> out(table.blocks.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) out[i] = classify_block(table.blocks[i], p);
-  });
+  parallel_for(std::size_t(0), out.size(), [&](std::size_t i) { out[i] = classify_block(table.blocks[i], p); });
   return out;
 }
 

@@ -14,26 +14,10 @@
 #include <filesystem>
 #include <memory>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace sl {
-namespace {
-
-// Temporary sibling of `path`, renamed over it once the file is complete.
-std::string temp_name(const std::string& path) {
-  return path + ".tmp." + std::to_string(::getpid());
-}
-
-void commit_file(const std::string& tmp, const std::string& path) {
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::filesystem::remove(tmp, ec);
-    throw InputError(path, "cannot write file: " + ec.message());
-  }
-}
-
-}  // namespace
 
 float linear_to_srgb(float x) {
   x = std::clamp(x, 0.0f, 1.0f);
@@ -53,7 +37,7 @@ void check_output_prefix(const std::string& prefix) {
 }
 
 void write_exr(const std::string& path, const Image& img) {
-  const std::string tmp = temp_name(path);
+  AtomicFile out(path);
   try {
     Imf::Header header(img.width, img.height);
     header.compression() = Imf::ZIP_COMPRESSION;
@@ -70,15 +54,13 @@ void write_exr(const std::string& path, const Image& img) {
       fb.insert(name, Imf::Slice(Imf::FLOAT, const_cast<char*>(reinterpret_cast<const char*>(data.data())),
                                  sizeof(float), sizeof(float) * std::size_t(img.width)));
     }
-    Imf::OutputFile file(tmp.c_str(), header);
+    Imf::OutputFile file(out.temp_path().c_str(), header);
     file.setFrameBuffer(fb);
     file.writePixels(img.height);
   } catch (const std::exception& e) {
-    std::error_code ec;
-    std::filesystem::remove(tmp, ec);
     throw InputError(path, std::string("cannot write EXR: ") + e.what());
   }
-  commit_file(tmp, path);
+  out.commit();
 }
 
 Image read_exr(const std::string& path) {
@@ -118,16 +100,14 @@ Image read_exr(const std::string& path) {
 }
 
 void write_png(const std::string& path, const Image& img) {
-  const std::string tmp = temp_name(path);
-  FILE* fp = std::fopen(tmp.c_str(), "wb");
-  if (!fp) throw InputError(path, "cannot open for writing");
+  AtomicFile out(path);
   png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   std::vector<unsigned char> row(std::size_t(img.width) * 3);
   volatile bool ok = png && info;  // volatile: survives libpng's longjmp
   if (ok && setjmp(png_jmpbuf(png))) ok = false;
   if (ok) {
-    png_init_io(png, fp);
+    png_init_io(png, out.stream());
     png_set_IHDR(png, info, img.width, img.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -144,12 +124,8 @@ void write_png(const std::string& path, const Image& img) {
     png_write_end(png, nullptr);
   }
   png_destroy_write_struct(png ? &png : nullptr, info ? &info : nullptr);
-  const bool closed = std::fclose(fp) == 0;
-  if (!ok || !closed) {
-    std::remove(tmp.c_str());
-    throw InputError(path, "cannot write PNG");
-  }
-  commit_file(tmp, path);
+  if (!ok) throw InputError(path, "cannot write PNG");
+  out.commit();
 }
 
 Image read_png(const std::string& path) {

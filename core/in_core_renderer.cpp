@@ -61,12 +61,9 @@ template <class VT>
 void render_labels_typed(const Scene& scene, const RenderSettings& s, const CastParams& p, const SkipInputs& k,
                          Frame& f) {
   if (!scene.labels) return render_typed<VT, std::uint8_t>(scene, s, p, k, f);
-  switch (scene.labels->type()) {
-    case VoxelType::U8: return render_typed<VT, std::uint8_t>(scene, s, p, k, f);
-    case VoxelType::U16: return render_typed<VT, std::uint16_t>(scene, s, p, k, f);
-    case VoxelType::U32: return render_typed<VT, std::uint32_t>(scene, s, p, k, f);
-    case VoxelType::F32: throw InputError("--labels", "label volume must be of an integer type");
-  }
+  dispatch_label(
+      scene.labels->type(), [&](auto tag) { render_typed<VT, decltype(tag)>(scene, s, p, k, f); },
+      [] { throw InputError("--labels", "label volume must be of an integer type"); });
 }
 
 }  // namespace
@@ -166,12 +163,8 @@ Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {
   if (caster_) {
     caster_(scene, s, p, skip, frame);
   } else {
-    switch (scene.volume->type()) {
-      case VoxelType::U8: render_labels_typed<std::uint8_t>(scene, s, p, skip, frame); break;
-      case VoxelType::U16: render_labels_typed<std::uint16_t>(scene, s, p, skip, frame); break;
-      case VoxelType::U32: render_labels_typed<std::uint32_t>(scene, s, p, skip, frame); break;
-      case VoxelType::F32: render_labels_typed<float>(scene, s, p, skip, frame); break;
-    }
+    dispatch_voxel(scene.volume->type(),
+                   [&](auto tag) { render_labels_typed<decltype(tag)>(scene, s, p, skip, frame); });
   }
   pipeline_.finish_frame(frame, s, state_->tree ? &*state_->tree : nullptr, gen, total);
   return frame;

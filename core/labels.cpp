@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/error.h"
+#include "core/rng.h"
 
 namespace sl {
 
@@ -78,13 +79,6 @@ T parse_number(const std::string& text, const std::string& what, const std::stri
     bad("'" + s + "' is not " + what + " in '" + spec + "'");
   }
   return v;
-}
-
-std::uint64_t splitmix64(std::uint64_t x) {
-  x += 0x9E3779B97F4A7C15ull;
-  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
-  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
-  return x ^ (x >> 31);
 }
 
 // fraction:P[:SEED]: exactly round(P * label_count) ids, those with the smallest hash(seed, id), so

@@ -1,5 +1,7 @@
 #include "core/occupancy_tree.h"
 
+#include "core/rng.h"
+
 #include <algorithm>
 #include <atomic>
 #include <type_traits>
@@ -277,34 +279,23 @@ void OccupancyTree::for_each_leaf(std::uint32_t node, Fn&& fn) const {
 
 namespace {
 
-struct SplitMix {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  double uniform() { return double(next() >> 11) * 0x1.0p-53; }
-};
-
 void random_subdivide(OccupancyTree& t, std::uint32_t node, const RandomTreeParams& p, OccupancyClass base,
-                      SplitMix& rng) {
+                      SplitMix64& rng) {
   static constexpr OccupancyClass kPick[5] = {OccupancyClass::Empty, OccupancyClass::Empty, OccupancyClass::Empty,
                                               OccupancyClass::NonEmpty, OccupancyClass::Unknown};
   const int depth = t.node(node).depth;
-  if (depth < p.max_depth && depth < t.levels() && rng.uniform() < p.p_split) {
+  if (depth < p.max_depth && depth < t.levels() && rng.uniform_double() < p.p_split) {
     const std::uint32_t c = t.refine(node);
     for (int k = 0; k < 8; ++k) random_subdivide(t, c + k, p, base, rng);
   } else {
-    t.set_leaf_class(node, rng.uniform() < p.p_base ? base : kPick[rng.next() % 5]);
+    t.set_leaf_class(node, rng.uniform_double() < p.p_base ? base : kPick[rng.next() % 5]);
   }
 }
 
 }  // namespace
 
 OccupancyTree make_random_occupancy_tree(const BlockGrid& grid, std::uint64_t seed, const RandomTreeParams& p) {
-  SplitMix rng{seed};
+  SplitMix64 rng{seed};
   static constexpr OccupancyClass kBase[3] = {OccupancyClass::Empty, OccupancyClass::NonEmpty,
                                               OccupancyClass::Unknown};
   const OccupancyClass base = kBase[rng.next() % 3];

@@ -14,6 +14,7 @@
 #else
 #define SL_SSE_TRILERP 0
 #endif
+#include "core/gradient.h"
 #include "core/math.h"
 
 namespace sl {
@@ -139,10 +140,7 @@ struct DenseGrid {
 
   // Central-difference gradient in world units, one voxel apart.
   SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing) const {
-    const vec3 hx(spacing.x, 0, 0), hy(0, spacing.y, 0), hz(0, 0, spacing.z);
-    return vec3((sample(p + hx) - sample(p - hx)) / (2.0f * spacing.x),
-                (sample(p + hy) - sample(p - hy)) / (2.0f * spacing.y),
-                (sample(p + hz) - sample(p - hz)) / (2.0f * spacing.z));
+    return central_difference_gradient(p, spacing, [this](const vec3& q) { return sample(q); });
   }
 };
 

@@ -1,15 +1,13 @@
 #include "core/segment_list_builder.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-#include <tbb/parallel_reduce.h>
-
 #include <algorithm>
 #include <atomic>
 #include <cmath>
 #include <vector>
 
 #include <glm/gtc/type_precision.hpp>
+
+#include "core/parallel.h"
 
 namespace sl {
 
@@ -63,10 +61,10 @@ ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen) {
 
 SegmentListStats segment_list_stats(const SegmentListBuffer& lists) {
   const std::size_t n = lists.counts.size();
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n), SegmentListStats{},
-      [&](const tbb::blocked_range<std::size_t>& r, SegmentListStats s) {
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+  return parallel_reduce(
+      std::size_t(0), n, std::size_t(1), SegmentListStats{},
+      [&](std::size_t lo, std::size_t hi, SegmentListStats s) {
+        for (std::size_t i = lo; i != hi; ++i) {
           const std::uint32_t c = lists.count(i);
           if (c == 0u) continue;
           ++s.lists;
@@ -94,13 +92,13 @@ namespace {
 // bins, in the given order, the items whose rectangle overlaps it. `rect_of(i)` is item i's rectangle.
 template <class RectOf, class Fn>
 std::uint64_t for_each_tile(const RayGenerator& gen, std::size_t items, RectOf&& rect_of, Fn&& fn) {
-  constexpr int T = kSegmentTileSize;
+  constexpr int T = kTileSize;
   const int tiles_x = (gen.width + T - 1) / T;
   const int tiles_y = (gen.height + T - 1) / T;
   std::atomic<std::uint64_t> pairs{0};
-  tbb::parallel_for(tbb::blocked_range<int>(0, tiles_y, 1), [&](const tbb::blocked_range<int>& rows) {
-    std::vector<std::vector<std::uint32_t>> bins(tiles_x);
-    for (int ty = rows.begin(); ty != rows.end(); ++ty) {
+  parallel_for(0, tiles_y, [&](int row0, int row1) {
+    std::vector<std::vector<std::uint32_t>> bins(tiles_x);  // once per chunk of rows
+    for (int ty = row0; ty != row1; ++ty) {
       for (auto& b : bins) b.clear();
       const int y0 = ty * T, y1 = std::min(y0 + T, gen.height) - 1;
       for (std::size_t i = 0; i < items; ++i) {
@@ -122,9 +120,8 @@ std::uint64_t for_each_tile(const RayGenerator& gen, std::size_t items, RectOf&&
 
 std::vector<ScreenRect> box_rects(std::span<const OccupancyBox> boxes, const RayGenerator& gen) {
   std::vector<ScreenRect> rects(boxes.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, boxes.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) rects[i] = conservative_screen_rect(boxes[i].box, gen);
-  });
+  parallel_for(std::size_t(0), boxes.size(),
+               [&](std::size_t i) { rects[i] = conservative_screen_rect(boxes[i].box, gen); });
   return rects;
 }
 
@@ -139,8 +136,8 @@ SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::spa
       gen, order.size(), [&](std::size_t i) -> const ScreenRect& { return rects[order[i].box]; },
       [&](const ScreenRect& tile, const std::vector<std::uint32_t>& entries) {
         if (entries.empty()) return;
-        Ray rays[kSegmentTileSize * kSegmentTileSize];
-        float t_seen[kSegmentTileSize * kSegmentTileSize];
+        Ray rays[kTileSize * kTileSize];
+        float t_seen[kTileSize * kTileSize];
         const int tw = tile.x1 - tile.x0 + 1;
         for (int y = tile.y0; y <= tile.y1; ++y) {
           for (int x = tile.x0; x <= tile.x1; ++x) {
@@ -173,17 +170,15 @@ SegmentListStats build_segment_lists_reference(const OccupancyGeometry& geometry
                                                std::span<const VisibilityEntry> order, const RayGenerator& gen,
                                                SegmentListBuffer& out, float eps) {
   out.reset(gen.width, gen.height, out.capacity);
-  tbb::parallel_for(tbb::blocked_range<int>(0, gen.height), [&](const tbb::blocked_range<int>& rows) {
-    for (int y = rows.begin(); y != rows.end(); ++y) {
-      for (int x = 0; x < gen.width; ++x) {
-        const Ray ray = gen.ray(x, y);
-        const std::size_t p = out.pixel(x, y);
-        float t_seen = kNoEventYet;
-        for (const VisibilityEntry& v : order) {
-          const OccupancyBox& b = geometry.boxes[v.box];
-          add_box_event(out.list(p), out.counts[p], t_seen, out.capacity, ray, b.box, v.face == Face::Front, b.cls,
-                        b.parent_cls, eps);
-        }
+  parallel_for(0, gen.height, [&](int y) {
+    for (int x = 0; x < gen.width; ++x) {
+      const Ray ray = gen.ray(x, y);
+      const std::size_t p = out.pixel(x, y);
+      float t_seen = kNoEventYet;
+      for (const VisibilityEntry& v : order) {
+        const OccupancyBox& b = geometry.boxes[v.box];
+        add_box_event(out.list(p), out.counts[p], t_seen, out.capacity, ray, b.box, v.face == Face::Front, b.cls,
+                      b.parent_cls, eps);
       }
     }
   });

@@ -16,8 +16,6 @@
 
 namespace sl {
 
-inline constexpr int kSegmentTileSize = 16;  // screen tile edge of the CPU builder
-
 // Inclusive pixel rectangle; empty when x0 > x1 or y0 > y1.
 struct ScreenRect {
   int x0 = 0, y0 = 0, x1 = -1, y1 = -1;

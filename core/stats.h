@@ -54,6 +54,20 @@ struct Stats {
 struct CastCounters {
   std::uint64_t samples = 0, useful = 0, rays = 0, misses = 0, dc_sum = 0;
   std::uint32_t dc_max = 0, dc_min = 0xFFFFFFFFu;
+
+  // From any set of counters with these field names (the CPU loop's atomics, the device's copy).
+  template <class C>
+  static CastCounters from(const C& c) {
+    CastCounters r;
+    r.samples = c.samples;
+    r.useful = c.useful;
+    r.rays = c.rays;
+    r.misses = c.misses;
+    r.dc_sum = c.dc_sum;
+    r.dc_max = c.dc_max;
+    r.dc_min = c.dc_min;
+    return r;
+  }
 };
 
 // The one place the ray-casting part of Stats is filled from the counters, for every backend. Depth

@@ -3,11 +3,10 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
-
-#include <tbb/parallel_reduce.h>
-#include <tbb/blocked_range.h>
+#include <type_traits>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl {
 
@@ -50,21 +49,23 @@ Volume::Volume(const VolumeDesc& desc, const std::string& origin) : desc_(desc) 
 void Volume::set(int x, int y, int z, float v) {
   const std::uint64_t i = view().index(x, y, z);
   auto clampi = [&](double lo, double hi) { return std::fmin(std::fmax(std::nearbyint(v), lo), hi); };
-  switch (desc_.type) {
-    case VoxelType::U8: as<std::uint8_t>()[i] = std::uint8_t(clampi(0, 255)); break;
-    case VoxelType::U16: as<std::uint16_t>()[i] = std::uint16_t(clampi(0, 65535)); break;
-    case VoxelType::U32: as<std::uint32_t>()[i] = std::uint32_t(clampi(0, 4294967295.0)); break;
-    case VoxelType::F32: as<float>()[i] = v; break;
-  }
+  dispatch_voxel(desc_.type, [&](auto tag) {
+    using T = decltype(tag);
+    if constexpr (std::is_floating_point_v<T>) {
+      as<T>()[i] = v;
+    } else {
+      as<T>()[i] = T(clampi(0, double(std::numeric_limits<T>::max())));
+    }
+  });
 }
 
 std::uint32_t max_label(const Volume& labels) {
   const VolumeView v = labels.view();
   const std::uint64_t n = labels.desc().voxel_count();
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::uint64_t>(0, n, 1 << 16), std::uint32_t(0),
-      [&](const tbb::blocked_range<std::uint64_t>& r, std::uint32_t m) {
-        for (std::uint64_t i = r.begin(); i < r.end(); ++i) {
+  return parallel_reduce(
+      std::uint64_t(0), n, std::uint64_t(1) << 16, std::uint32_t(0),
+      [&](std::uint64_t lo, std::uint64_t hi, std::uint32_t m) {
+        for (std::uint64_t i = lo; i < hi; ++i) {
           const int x = int(i % std::uint64_t(v.dims.x));
           const std::uint64_t yz = i / std::uint64_t(v.dims.x);
           const std::uint32_t l = v.label(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));
@@ -78,10 +79,11 @@ std::uint32_t max_label(const Volume& labels) {
 vec2 value_range(const Volume& vol) {
   const VolumeView v = vol.view();
   const std::uint64_t n = vol.desc().voxel_count();
-  return tbb::parallel_reduce(
-      tbb::blocked_range<std::uint64_t>(0, n, 1 << 16), vec2(INFINITY, -INFINITY),
-      [&](const tbb::blocked_range<std::uint64_t>& r, vec2 m) {
-        for (std::uint64_t i = r.begin(); i < r.end(); ++i) {
+  // min and max are exact in any grouping (a NaN voxel is never selected).
+  return parallel_reduce(
+      std::uint64_t(0), n, std::uint64_t(1) << 16, vec2(INFINITY, -INFINITY),
+      [&](std::uint64_t lo, std::uint64_t hi, vec2 m) {
+        for (std::uint64_t i = lo; i < hi; ++i) {
           const int x = int(i % std::uint64_t(v.dims.x));
           const std::uint64_t yz = i / std::uint64_t(v.dims.x);
           const float f = v.value(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));

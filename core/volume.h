@@ -8,14 +8,10 @@
 
 #include "core/config.h"
 #include "core/math.h"
+#include "core/voxel_dispatch.h"
 
 namespace sl {
 
-enum class VoxelType : std::uint8_t { U8 = 0, U16 = 1, U32 = 2, F32 = 3 };
-
-SL_HOST_DEVICE inline int voxel_size(VoxelType t) {
-  return t == VoxelType::U8 ? 1 : t == VoxelType::U16 ? 2 : 4;
-}
 const char* to_string(VoxelType t);
 
 struct VolumeDesc {
@@ -51,21 +47,11 @@ struct VolumeView {
   // Raw value as float (u8/u16/u32 raw integers, f32 as is).
   SL_HOST_DEVICE float value(int x, int y, int z) const {
     const std::uint64_t i = index(x, y, z);
-    switch (type) {
-      case VoxelType::U8: return float(static_cast<const std::uint8_t*>(data)[i]);
-      case VoxelType::U16: return float(static_cast<const std::uint16_t*>(data)[i]);
-      case VoxelType::U32: return float(static_cast<const std::uint32_t*>(data)[i]);
-      default: return static_cast<const float*>(data)[i];
-    }
+    return dispatch_voxel(type, [&](auto tag) { return float(static_cast<const decltype(tag)*>(data)[i]); });
   }
   SL_HOST_DEVICE std::uint32_t label(int x, int y, int z) const {
     const std::uint64_t i = index(x, y, z);
-    switch (type) {
-      case VoxelType::U8: return static_cast<const std::uint8_t*>(data)[i];
-      case VoxelType::U16: return static_cast<const std::uint16_t*>(data)[i];
-      case VoxelType::U32: return static_cast<const std::uint32_t*>(data)[i];
-      default: return std::uint32_t(static_cast<const float*>(data)[i]);
-    }
+    return dispatch_voxel(type, [&](auto tag) { return std::uint32_t(static_cast<const decltype(tag)*>(data)[i]); });
   }
 };
 

@@ -137,15 +137,7 @@ class DeviceFrame {
     DeviceCounters d;
     counters_.download(&d, 1, stream);
     check(cudaStreamSynchronize(stream), "ray casting");
-    CastCounters c;
-    c.samples = d.samples;
-    c.useful = d.useful;
-    c.rays = d.rays;
-    c.misses = d.misses;
-    c.dc_sum = d.dc_sum;
-    c.dc_max = d.dc_max;
-    c.dc_min = d.dc_min;
-    record_cast_counters(c, method != SkipMethod::None, frame.stats);
+    record_cast_counters(CastCounters::from(d), method != SkipMethod::None, frame.stats);
   }
 
  private:

@@ -124,12 +124,7 @@ class CudaCastDevice final : public CastDevice {
     inputs_.upload(p, skip, compute_);  // transfer-function table, enabled labels, segment lists
     const bool iso = p.mode == RenderMode::Iso;
     const FrameOutputs out = frame_.prepare(r.gen.width, r.gen.height, iso, compute_);
-    switch (config_.voxel_type) {
-      case VoxelType::U8: launch<std::uint8_t>(r, p, skip, out); break;
-      case VoxelType::U16: launch<std::uint16_t>(r, p, skip, out); break;
-      case VoxelType::U32: launch<std::uint32_t>(r, p, skip, out); break;
-      case VoxelType::F32: launch<float>(r, p, skip, out); break;
-    }
+    dispatch_voxel(config_.voxel_type, [&](auto tag) { launch<decltype(tag)>(r, p, skip, out); });
     frame_.finish(frame, skip.method, iso, compute_);  // synchronises the compute stream
     // Copied back once per frame: the miss list and the usage stamps.
     std::uint32_t claimed = 0;  // ids claimed (may exceed the capacity: the rest were dropped)

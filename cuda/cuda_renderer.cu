@@ -39,12 +39,8 @@ class InCoreCaster {
     const FrameOutputs out = frame_.prepare(s.width, s.height, iso, stream_);
     const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
     const Box3 vbox{vec3(0.0f), scene.volume->desc().extent()};
-    switch (scene.volume->type()) {
-      case VoxelType::U8: launch<std::uint8_t>(scene, p, gen, vbox, skip, out); break;
-      case VoxelType::U16: launch<std::uint16_t>(scene, p, gen, vbox, skip, out); break;
-      case VoxelType::U32: launch<std::uint32_t>(scene, p, gen, vbox, skip, out); break;
-      case VoxelType::F32: launch<float>(scene, p, gen, vbox, skip, out); break;
-    }
+    dispatch_voxel(scene.volume->type(),
+                   [&](auto tag) { launch<decltype(tag)>(scene, p, gen, vbox, skip, out); });
     frame_.finish(frame, skip.method, iso, stream_);
     frame.stats.time_ms.raycast = timer.ms();
     frame.stats.backend = "cuda";

@@ -6,6 +6,8 @@
 #include <cstdint>
 
 #include "cache/virtual_sampler.h"
+#include "core/gradient.h"
+#include "core/voxel_dispatch.h"
 #include "core/raycast.h"
 #include "core/sampling.h"
 
@@ -47,11 +49,9 @@ struct VirtualAnyLabelSampler {
     if (!v.has_labels) return 0u;
     const auto& k = v.locate(p, c);
     if (!k.entry.is_resident()) return 0u;
-    switch (label_type) {
-      case VoxelType::U16: return labels<std::uint16_t>(k.entry.slot(), k.id).label_at(p);
-      case VoxelType::U32: return labels<std::uint32_t>(k.entry.slot(), k.id).label_at(p);
-      default: return labels<std::uint8_t>(k.entry.slot(), k.id).label_at(p);
-    }
+    return dispatch_label(
+        label_type, [&](auto tag) { return labels<decltype(tag)>(k.entry.slot(), k.id).label_at(p); },
+        [&] { return labels<std::uint8_t>(k.entry.slot(), k.id).label_at(p); });
   }
   template <class L>
   SL_HOST_DEVICE SlotSampler<L> labels(std::uint32_t slot, BrickId id) const {
@@ -96,11 +96,7 @@ struct TextureVirtualSampler {
   SL_HOST_DEVICE std::uint32_t label_at(const vec3& p, const SampleContext& c) const { return base.label_at(p, c); }
   // Central differences one level voxel apart, as VirtualSampler::gradient, through the atlas.
   SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing, const SampleContext& c) const {
-    const vec3 s = spacing * float(1 << c.level);
-    const vec3 hx(s.x, 0, 0), hy(0, s.y, 0), hz(0, 0, s.z);
-    return vec3((sample(p + hx, c) - sample(p - hx, c)) / (2.0f * s.x),
-                (sample(p + hy, c) - sample(p - hy, c)) / (2.0f * s.y),
-                (sample(p + hz, c) - sample(p - hz, c)) / (2.0f * s.z));
+    return central_difference_gradient(p, spacing * float(1 << c.level), [&](const vec3& q) { return sample(q, c); });
   }
 };
 

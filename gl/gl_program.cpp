@@ -79,21 +79,18 @@ void GlBuffer::bind_range(GLuint index, std::size_t offset, std::size_t bytes) c
 
 namespace {
 
-std::string shader_log(GLuint s) {
+// The info log of a shader or a program: the same two calls, with the getters of its kind.
+template <class GetIv, class GetLog>
+std::string info_log(GLuint object, GetIv get_iv, GetLog get_log) {
   GLint n = 0;
-  glGetShaderiv(s, GL_INFO_LOG_LENGTH, &n);
+  get_iv(object, GL_INFO_LOG_LENGTH, &n);
   std::vector<char> log(std::size_t(n > 0 ? n : 1), '\0');
-  glGetShaderInfoLog(s, GLsizei(log.size()), nullptr, log.data());
+  get_log(object, GLsizei(log.size()), nullptr, log.data());
   return log.data();
 }
 
-std::string program_log(GLuint p) {
-  GLint n = 0;
-  glGetProgramiv(p, GL_INFO_LOG_LENGTH, &n);
-  std::vector<char> log(std::size_t(n > 0 ? n : 1), '\0');
-  glGetProgramInfoLog(p, GLsizei(log.size()), nullptr, log.data());
-  return log.data();
-}
+std::string shader_log(GLuint s) { return info_log(s, glGetShaderiv, glGetShaderInfoLog); }
+std::string program_log(GLuint p) { return info_log(p, glGetProgramiv, glGetProgramInfoLog); }
 
 }  // namespace
 

@@ -1,12 +1,10 @@
 #include "gl/gl_segment_list_builder.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cstring>
 #include <numeric>
 
+#include "core/parallel.h"
 #include "core/stats.h"
 #include "gl/gl_program.h"
 
@@ -187,9 +185,8 @@ GlBuildStats GlSegmentListBuilder::build(const OccupancyGeometry& geometry, std:
   for (const VisibilityEntry& e : order) SL_CHECK(e.box < geometry.boxes.size());
   if (m.use_draw_order) SL_CHECK(m.draw_order.bytes() >= std::max<std::size_t>(order.size() * 4, 16));
   std::vector<ScreenRect> rects(geometry.boxes.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, rects.size()), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) rects[i] = conservative_screen_rect(geometry.boxes[i].box, gen);
-  });
+  parallel_for(std::size_t(0), rects.size(),
+               [&](std::size_t i) { rects[i] = conservative_screen_rect(geometry.boxes[i].box, gen); });
   Box3 bounds{vec3(3.4e38f), vec3(-3.4e38f)};
   for (const OccupancyBox& b : geometry.boxes) {
     bounds.lo = glm::min(bounds.lo, b.box.lo);

@@ -2,8 +2,8 @@
 
 #include <cmath>
 
-#include "apps/viewer/file_util.h"
 #include "apps/viewer/view_settings.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace sl::viewer {
@@ -40,7 +40,7 @@ CameraPath PathRecorder::path() const {
 
 void PathRecorder::save(const std::string& file) const {
   if (path_.keyframes.empty()) throw InputError(file, "no keyframes recorded (press K, or turn on the timer)");
-  write_text_file_atomic(file, to_json());
+  write_file_atomic(file, to_json() + "\n");
 }
 
 }  // namespace sl::viewer

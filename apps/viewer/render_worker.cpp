@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <exception>
+#include <future>
 
 namespace sl::viewer {
 
@@ -28,12 +29,29 @@ std::vector<std::uint8_t> to_display_rgba8(const Image& img) {
   return out;
 }
 
-RenderWorker::RenderWorker(const Volume* volume, const Volume* labels, RenderFn render, std::function<void()> on_done)
-    : volume_(volume),
-      labels_(labels),
-      render_(std::move(render)),
-      on_done_(std::move(on_done)),
-      thread_([this] { run(); }) {}
+RenderWorker::RenderWorker(const Volume* volume, const Volume* labels, std::function<RenderFn()> make_renderer,
+                           std::function<void()> on_done)
+    : volume_(volume), labels_(labels), on_done_(std::move(on_done)) {
+  std::promise<void> made;
+  std::future<void> ready = made.get_future();
+  thread_ = std::thread([this, make = std::move(make_renderer), made = std::move(made)]() mutable {
+    try {
+      render_ = make();
+    } catch (...) {
+      made.set_exception(std::current_exception());
+      return;
+    }
+    made.set_value();
+    run();
+    render_ = nullptr;  // the renderer ends on the thread that made it
+  });
+  try {
+    ready.get();
+  } catch (...) {
+    thread_.join();
+    throw;
+  }
+}
 
 RenderWorker::~RenderWorker() {
   {

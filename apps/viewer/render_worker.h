@@ -47,9 +47,14 @@ class RenderWorker {
  public:
   using RenderFn = std::function<Frame(const Scene&, const RenderSettings&)>;
 
+  // `make_renderer` runs on the worker thread, which then owns what it returns (the renderer and its
+  // caches, a GL context for `--lists gl`: current on the thread that made it) and destroys it there
+  // when it ends. The constructor waits for it and rethrows what it throws (InputError for settings
+  // the renderer refuses), so a bad setting fails before the viewer opens a window.
   // `volume` and `labels` (may be null) must outlive the worker; they are only read. `on_done` runs on
   // the worker thread after each frame (the viewer wakes its event loop with it).
-  RenderWorker(const Volume* volume, const Volume* labels, RenderFn render, std::function<void()> on_done = {});
+  RenderWorker(const Volume* volume, const Volume* labels, std::function<RenderFn()> make_renderer,
+               std::function<void()> on_done = {});
   ~RenderWorker();  // finishes the frame in progress, drops a queued one, joins
   RenderWorker(const RenderWorker&) = delete;
   RenderWorker& operator=(const RenderWorker&) = delete;
@@ -65,7 +70,7 @@ class RenderWorker {
 
   const Volume* volume_;
   const Volume* labels_;
-  RenderFn render_;
+  RenderFn render_;  // made, used and destroyed on the worker thread
   std::function<void()> on_done_;
   mutable std::mutex mutex_;
   std::condition_variable wake_, done_;

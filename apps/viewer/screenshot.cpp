@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace sl::viewer {
@@ -21,17 +22,11 @@ void write_png_rgba8(const std::string& path, int width, int height, const std::
   img.format = PNG_FORMAT_RGBA;
   // A negative row stride makes libpng read rows bottom-up: the GL read-back needs no copy.
   const png_int_32 stride = png_int_32(PNG_IMAGE_ROW_STRIDE(img)) * (bottom_up ? -1 : 1);
-  const std::string tmp = path + ".tmp";
-  if (!png_image_write_to_file(&img, tmp.c_str(), 0, rgba.data(), stride, nullptr)) {
-    std::remove(tmp.c_str());
+  AtomicFile out(path);
+  if (!png_image_write_to_stdio(&img, out.stream(), 0, rgba.data(), stride, nullptr)) {
     throw InputError(path, std::string("cannot write PNG: ") + img.message);
   }
-  std::error_code ec;
-  std::filesystem::rename(tmp, path, ec);
-  if (ec) {
-    std::remove(tmp.c_str());
-    throw InputError(path, "cannot write PNG: " + ec.message());
-  }
+  out.commit();
 }
 
 std::string next_screenshot_name(const std::string& dir) {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "apps/viewer/file_util.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 namespace sl::viewer {
@@ -101,7 +101,7 @@ TransferFunction TfEditor::build() const { return TransferFunction(points_, "tra
 void TfEditor::load(const std::string& path) { set(load_transfer_function(path)); }
 
 void TfEditor::save(const std::string& path) const {
-  write_text_file_atomic(path, transfer_function_to_json(build()));
+  write_file_atomic(path, transfer_function_to_json(build()) + "\n");
 }
 
 std::vector<float> value_histogram(const Volume& v, int bins, float lo, float hi) {

@@ -1,5 +1,7 @@
 #include "apps/viewer/view_settings.h"
 
+#include "apps/render_options.h"
+
 namespace sl::viewer {
 
 RenderMode next_mode(RenderMode m, bool has_labels) {
@@ -13,7 +15,7 @@ RenderMode next_mode(RenderMode m, bool has_labels) {
 }
 
 bool method_available(const ViewSettings& v, SkipMethod m) {
-  return !v.out_of_core || m == SkipMethod::SparseLeap || m == SkipMethod::None;
+  return !v.out_of_core || app::out_of_core_method(m);
 }
 
 KeyAction apply_key(ViewSettings& v, int key) {

@@ -1,8 +1,6 @@
 #include "cache/formats/ingest.h"
 
-#include <tbb/blocked_range.h>
 #include <tbb/info.h>
-#include <tbb/parallel_for.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -23,6 +21,8 @@
 #include "cache/formats/tiff_stack.h"
 #include "cache/formats/zarr_writer.h"
 #include "core/error.h"
+#include "core/parallel.h"
+#include "core/voxel_dispatch.h"
 
 namespace sl {
 namespace {
@@ -190,8 +190,8 @@ class PyramidBuilder {
       const int out = (b.filled + 1) / 2;
       std::byte* dst = n.data.data() + std::size_t(n.filled) * plane_bytes(l + 1);
       const ivec3 sd(b.dims.x, b.dims.y, b.filled);
-      tbb::parallel_for(tbb::blocked_range<int>(0, out), [&](const tbb::blocked_range<int>& r) {
-        (labels_ ? reduce_mode : reduce_mean)(type_, b.data.data(), sd, dst, r.begin(), r.end());
+      parallel_for(0, out, [&](int lo, int hi) {
+        (labels_ ? reduce_mode : reduce_mean)(type_, b.data.data(), sd, dst, lo, hi);
       });
       n.filled += out;
       SL_CHECK(n.filled <= C);
@@ -208,16 +208,15 @@ class PyramidBuilder {
 };
 
 std::uint32_t slab_max_label(VoxelType t, const std::byte* p, std::size_t n) {
-  std::uint32_t m = 0;
-  for (std::size_t i = 0; i < n; ++i) {
-    switch (t) {
-      case VoxelType::U8: m = std::max<std::uint32_t>(m, std::uint8_t(p[i])); break;
-      case VoxelType::U16: m = std::max<std::uint32_t>(m, reinterpret_cast<const std::uint16_t*>(p)[i]); break;
-      case VoxelType::U32: m = std::max<std::uint32_t>(m, reinterpret_cast<const std::uint32_t*>(p)[i]); break;
-      case VoxelType::F32: break;
-    }
-  }
-  return m;
+  return dispatch_label(
+      t,
+      [&](auto tag) {
+        const auto* v = reinterpret_cast<const decltype(tag)*>(p);
+        std::uint32_t m = 0;
+        for (std::size_t i = 0; i < n; ++i) m = std::max<std::uint32_t>(m, v[i]);
+        return m;
+      },
+      [] { return std::uint32_t(0); });  // refused earlier (integer labels only)
 }
 
 }  // namespace

@@ -3,7 +3,6 @@
 #include <zlib.h>
 
 #include <algorithm>
-#include <atomic>
 #include <bit>
 #include <charconv>
 #include <cstdint>
@@ -12,9 +11,8 @@
 #include <new>
 #include <vector>
 
-#include <unistd.h>
-
 #include "cache/formats/nrrd_header.h"
+#include "core/atomic_file.h"
 #include "core/error.h"
 
 // NRRD data: reading the payload described by a parsed header (nrrd_header.cpp), and writing.
@@ -157,59 +155,6 @@ Volume read_nrrd(const std::string& path) {
 
 namespace {
 
-// A file written under a hidden temporary name beside its destination and renamed into place by
-// publish(); destroyed unpublished, it removes itself. Errors name `who` (the path the user gave).
-class TempFile {
- public:
-  TempFile(const fs::path& final_path, std::string who) : final_(final_path), who_(std::move(who)) {
-    static std::atomic<unsigned> counter{0};
-    const fs::path dir = final_.has_parent_path() ? final_.parent_path() : fs::path(".");
-    // Hidden and suffixed: never mistaken for the finished file. (Built with append: GCC 12 warns
-    // falsely, -Wrestrict, on `"." + std::string`.)
-    std::string name(1, '.');
-    name.append(final_.filename().string()).append(".part-").append(std::to_string(::getpid()));
-    name.append("-").append(std::to_string(counter++));
-    tmp_ = dir / name;
-    f_.reset(std::fopen(tmp_.c_str(), "wb"));
-    if (!f_) throw InputError(who_, "cannot write '" + final_.string() + "': " + errno_text());
-  }
-  TempFile(const TempFile&) = delete;
-  TempFile& operator=(const TempFile&) = delete;
-  ~TempFile() {
-    f_.reset();
-    if (!published_) {
-      std::error_code ec;
-      fs::remove(tmp_, ec);
-    }
-  }
-
-  void write(const void* p, std::size_t n) {
-    if (n && std::fwrite(p, 1, n, f_.get()) != n) fail();
-  }
-  // Flushes, syncs and closes, so errors such as a full disk surface before anything is renamed, and
-  // a crash after the rename cannot leave the final name on an empty or partial file.
-  void finish() {
-    if (std::fflush(f_.get()) != 0 || ::fsync(::fileno(f_.get())) != 0) fail();
-    if (std::fclose(f_.release()) != 0) fail();
-  }
-  const fs::path& path() const { return final_; }
-  void publish() {
-    std::error_code ec;
-    fs::rename(tmp_, final_, ec);
-    if (ec) throw InputError(who_, "cannot write '" + final_.string() + "': " + ec.message());
-    published_ = true;
-  }
-
- private:
-  [[noreturn]] void fail() {
-    throw InputError(who_, "writing '" + final_.string() + "' failed: " + errno_text());
-  }
-  fs::path final_, tmp_;
-  std::string who_;
-  File f_;
-  bool published_ = false;
-};
-
 const char* nrrd_type(VoxelType t) {
   switch (t) {
     case VoxelType::U8: return "unsigned char";
@@ -244,7 +189,7 @@ template <class Sink> void for_each_le_chunk(const Volume& v, Sink&& sink) {
   }
 }
 
-void write_payload(TempFile& out, const Volume& v, bool gzip) {
+void write_payload(AtomicFile& out, const Volume& v, bool gzip) {
   if (!gzip) {
     for_each_le_chunk(v, [&](const std::byte* p, std::size_t n) { out.write(p, n); });
     return;
@@ -308,22 +253,21 @@ void write_nrrd(const std::string& path, const Volume& v, bool gzip) {
     header += "\n";  // the blank line that separates an attached header from its data
   }
 
-  TempFile head(out, path);
-  head.write(header.data(), header.size());
+  AtomicFile head(out, path);
+  head.write(header);
   if (!detached) {
     write_payload(head, v, gzip);
-    head.finish();
-    head.publish();
+    head.commit();
     return;
   }
-  TempFile data(out.has_parent_path() ? out.parent_path() / data_name : fs::path(data_name), path);
+  AtomicFile data(out.has_parent_path() ? out.parent_path() / data_name : fs::path(data_name), path);
   write_payload(data, v, gzip);
-  data.finish();
-  head.finish();
+  data.close();
+  head.close();
   // Data first: the header is what makes the pair look complete, so it appears last.
-  data.publish();
+  data.commit();
   try {
-    head.publish();
+    head.commit();
   } catch (...) {
     std::error_code ec;  // a data file without its header is debris: remove what we just wrote
     fs::remove(data.path(), ec);

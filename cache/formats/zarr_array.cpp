@@ -9,6 +9,7 @@
 #include <limits>
 
 #include "core/error.h"
+#include "core/voxel_dispatch.h"
 
 namespace sl::zarr {
 namespace {
@@ -36,12 +37,7 @@ template <class T> void fill_with(std::vector<std::byte>& b, double v) {
 
 ChunkCache::Chunk make_fill_chunk(const ArrayMeta& m) {
   auto b = std::make_shared<std::vector<std::byte>>(m.chunk_bytes());
-  switch (m.type) {
-    case VoxelType::U8: fill_with<std::uint8_t>(*b, m.fill); break;
-    case VoxelType::U16: fill_with<std::uint16_t>(*b, m.fill); break;
-    case VoxelType::U32: fill_with<std::uint32_t>(*b, m.fill); break;
-    case VoxelType::F32: fill_with<float>(*b, m.fill); break;
-  }
+  dispatch_voxel(m.type, [&](auto tag) { fill_with<decltype(tag)>(*b, m.fill); });
   return b;
 }
 

@@ -1,14 +1,12 @@
 #include "cache/formats/zarr_source.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <cstring>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
 #include "cache/pyramid.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl {
 namespace {
@@ -24,7 +22,7 @@ Volume read_level(const zarr::ArrayReader& r, int level, const std::string& orig
   const int cz = lv.meta.chunk_dims().z;
   const int rows = (d.dims.z + cz - 1) / cz;
   const std::size_t plane = std::size_t(d.dims.x) * std::size_t(d.dims.y) * std::size_t(voxel_size(d.type));
-  tbb::parallel_for(0, rows, [&](int i) {
+  parallel_for(0, rows, [&](int i) {
     const int z0 = i * cz, nz = std::min(cz, d.dims.z - z0);
     r.read_box(level, ivec3(0, 0, z0), ivec3(d.dims.x, d.dims.y, nz), v.data() + std::size_t(z0) * plane);
   });
@@ -55,8 +53,8 @@ std::vector<Volume> derive(const Volume& base, bool labels) {
     d.dims = (d.dims + 1) / 2;
     d.spacing *= 2.0f;
     Volume dst(d, "pyramid");
-    tbb::parallel_for(tbb::blocked_range<int>(0, d.dims.z), [&](const tbb::blocked_range<int>& r) {
-      (labels ? reduce_mode : reduce_mean)(src->type(), src->data(), src->dims(), dst.data(), r.begin(), r.end());
+    parallel_for(0, d.dims.z, [&](int lo, int hi) {
+      (labels ? reduce_mode : reduce_mean)(src->type(), src->data(), src->dims(), dst.data(), lo, hi);
     });
     out.push_back(std::move(dst));
     src = &out.back();

@@ -1,7 +1,5 @@
 #include "cache/formats/zarr_writer.h"
 
-#include <tbb/parallel_for.h>
-
 #include <bit>
 #include <cerrno>
 #include <cstdio>
@@ -10,6 +8,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl::zarr {
 namespace {
@@ -139,7 +138,7 @@ void StoreWriter::write_slab(bool labels, int level, int z0, int nz, const std::
     fs::create_directories(arr / std::to_string(cz) / std::to_string(cy), ec);
     if (ec) throw InputError(who_, "cannot create '" + arr.string() + "/...': " + ec.message());
   }
-  tbb::parallel_for(0, ncx * ncy, [&](int i) {
+  parallel_for(0, ncx * ncy, [&](int i) {
     const int cx = i % ncx, cy = i / ncx;
     // Edge chunks are stored full size, padded with the fill value (Zarr v2).
     std::vector<std::byte> chunk(std::size_t(C) * std::size_t(C) * std::size_t(C) * elem, std::byte{0});

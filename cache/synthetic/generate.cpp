@@ -2,51 +2,25 @@
 
 #include "cache/synthetic/neurite_tubes.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
 #include "core/error.h"
+#include "core/parallel.h"
+#include "core/rng.h"
 
 namespace sl {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
 
-// SplitMix64: tiny, fast, and fully specified, so a seed means the same volume everywhere. Each tube
-// or blob draws from its own stream (seed, index), so adding or reordering work cannot shift others.
-class Rng {
- public:
-  Rng(std::uint64_t seed, std::uint64_t stream) : s_(mix(mix(seed) ^ (stream * 0xD1B54A32D192ED03ull))) {}
-  std::uint64_t next() { return mix(s_ += 0x9E3779B97F4A7C15ull); }
-  float uniform() { return float(next() >> 40) * 0x1p-24f; }  // [0, 1), exactly representable steps
-  float uniform(float a, float b) { return a + (b - a) * uniform(); }
-  vec3 in_ball() {  // rejection sampling keeps it isotropic without transcendental functions
-    for (;;) {
-      const vec3 v(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
-      if (glm::dot(v, v) <= 1.0f) return v;
-    }
-  }
-  vec3 unit() {
-    for (;;) {
-      const vec3 v = in_ball();
-      const float l2 = glm::dot(v, v);
-      if (l2 > 1e-4f) return v / std::sqrt(l2);
-    }
-  }
-
- private:
-  static std::uint64_t mix(std::uint64_t z) {
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  std::uint64_t s_;
-};
+// Each tube or blob draws from its own SplitMix64 stream (seed, index), so adding or reordering work
+// cannot shift others.
+SplitMix64 stream_rng(std::uint64_t seed, std::uint64_t stream) {
+  return SplitMix64(splitmix64_mix(splitmix64_mix(seed) ^ (stream * 0xD1B54A32D192ED03ull)));
+}
 
 // Work is split into z-slabs of this many slices. Every voxel belongs to one slab and folds its
 // contributions in global (tube/blob) order, so the result cannot depend on how TBB schedules slabs.
@@ -97,7 +71,7 @@ bool outside(const vec3& p, const vec3& box, float margin) {
 
 // Smooth random walk: the direction turns by a bend velocity that itself does a damped random walk,
 // giving gently curving paths (curvature radius of tens of voxels) rather than jittery ones.
-std::vector<PathNode> walk(Rng& rng, vec3 p, vec3 d, float r0, float length, const vec3& box) {
+std::vector<PathNode> walk(SplitMix64& rng, vec3 p, vec3 d, float r0, float length, const vec3& box) {
   const float phase = rng.uniform(0.0f, 2.0f * kPi);
   const float freq = rng.uniform(0.02f, 0.08f);  // radius varies by +-20 % along the tube
   const auto radius = [&](float s) {
@@ -141,7 +115,7 @@ std::vector<Capsule> neurite_capsules(const ivec3& dims, std::uint32_t seed, std
   // One tube (plus branches) per id until the estimated fill is reached; ids must fit in u16.
   while (filled < kNeuriteFill * voxels && count < 65535) {
     const std::uint16_t id = std::uint16_t(++count);
-    Rng rng(seed, id);
+    SplitMix64 rng = stream_rng(seed, id);
     const float brightness = std::round(rng.uniform(120.0f, 255.0f));
     const float u = rng.uniform();
     const float r0 = 1.0f + 3.0f * u * u * u;  // mostly thin, a few thick ones
@@ -190,9 +164,9 @@ GeneratedVolume neurite_volume(const ivec3& dims, std::uint32_t seed) {
   });
   const std::size_t slice = std::size_t(dims.x) * std::size_t(dims.y);
 
-  tbb::parallel_for(tbb::blocked_range<int>(0, slab_count(dims), 1), [&](const tbb::blocked_range<int>& r) {
+  parallel_for(0, slab_count(dims), [&](int lo, int hi) {
     std::vector<float> best;  // per voxel: signed distance of the deepest tube core so far
-    for (int s = r.begin(); s != r.end(); ++s) {
+    for (int s = lo; s != hi; ++s) {
       const int z0 = s * kSlab, z1 = std::min(dims.z, z0 + kSlab) - 1;
       best.assign(slice * std::size_t(kSlab), std::numeric_limits<float>::infinity());
       for (const std::uint32_t ci : bins[std::size_t(s)]) {
@@ -244,7 +218,7 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
   std::vector<Blob> list;
   double filled = 0.0;
   while (filled < kBlobFill * voxels && list.size() < 65535) {
-    Rng rng(seed, list.size() + 1);
+    SplitMix64 rng = stream_rng(seed, list.size() + 1);
     Blob b;
     b.c = vec3(rng.uniform(), rng.uniform(), rng.uniform()) * box;
     b.sigma = std::max(1.0f, rng.uniform(0.015f, 0.05f) * size);
@@ -266,10 +240,10 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
   const std::size_t slice = std::size_t(dims.x) * std::size_t(dims.y);
   const float floor_value = std::exp(-0.5f * kCut * kCut);
 
-  tbb::parallel_for(tbb::blocked_range<int>(0, slab_count(dims), 1), [&](const tbb::blocked_range<int>& r) {
+  parallel_for(0, slab_count(dims), [&](int lo, int hi) {
     std::vector<float> sum, top;
     std::vector<std::uint16_t> arg;
-    for (int s = r.begin(); s != r.end(); ++s) {
+    for (int s = lo; s != hi; ++s) {
       const int z0 = s * kSlab, z1 = std::min(dims.z, z0 + kSlab) - 1;
       const std::size_t n = slice * std::size_t(z1 - z0 + 1);
       sum.assign(n, 0.0f);
@@ -321,7 +295,7 @@ GeneratedVolume blobs(const ivec3& dims, std::uint32_t seed) {
 // dimension, well under 1 % of the voxels). Intensity: a base value per label, modulated by a smooth
 // pattern so that transfer functions show structure; 0 outside.
 GeneratedVolume organs(const ivec3& dims, std::uint32_t seed) {
-  Rng rng(seed, 1);
+  SplitMix64 rng = stream_rng(seed, 1);
   const vec3 box(dims);
   const vec3 centre = 0.5f * box;
   const vec3 half = 0.485f * box;  // 0.97 of the box
@@ -340,8 +314,8 @@ GeneratedVolume organs(const ivec3& dims, std::uint32_t seed) {
   g.labels = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::U16}, "gen");
   std::uint8_t* intensity = g.intensity.as<std::uint8_t>();
   std::uint16_t* labels = g.labels.as<std::uint16_t>();
-  tbb::parallel_for(tbb::blocked_range<int>(0, dims.z), [&](const tbb::blocked_range<int>& r) {
-    for (int z = r.begin(); z != r.end(); ++z) {
+  parallel_for(0, dims.z, [&](int lo, int hi) {
+    for (int z = lo; z != hi; ++z) {
       for (int y = 0; y < dims.y; ++y) {
         const std::size_t row = (std::size_t(z) * std::size_t(dims.y) + std::size_t(y)) * std::size_t(dims.x);
         for (int x = 0; x < dims.x; ++x) {
@@ -379,8 +353,8 @@ GeneratedVolume sphere(const ivec3& dims) {
   g.intensity = Volume(VolumeDesc{dims, vec3(1.0f), VoxelType::F32}, "gen");
   float* out = g.intensity.as<float>();
   const glm::dvec3 centre = glm::dvec3(dims) * 0.5;
-  tbb::parallel_for(tbb::blocked_range<int>(0, dims.z), [&](const tbb::blocked_range<int>& r) {
-    for (int z = r.begin(); z != r.end(); ++z) {
+  parallel_for(0, dims.z, [&](int lo, int hi) {
+    for (int z = lo; z != hi; ++z) {
       for (int y = 0; y < dims.y; ++y) {
         float* row = out + (std::size_t(z) * std::size_t(dims.y) + std::size_t(y)) * std::size_t(dims.x);
         for (int x = 0; x < dims.x; ++x) {

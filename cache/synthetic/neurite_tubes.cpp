@@ -15,10 +15,10 @@ constexpr float kRadiusBoost = 1.02f;  // E[(1 + 0.2 sin)^2]: the +-20 % radius 
 constexpr float kBranchShrink = 0.675f;  // mean of U(0.5, 0.85), the branch/parent radius ratio
 
 std::uint64_t cell_key(const Params& p, ivec3 c) {
-  return mix64(std::uint64_t(p.seed) * 0x9E3779B97F4A7C15ull ^
+  return splitmix64_mix(std::uint64_t(p.seed) * kSplitMixGamma ^
                (std::uint64_t(c.x) | (std::uint64_t(c.y) << 21) | (std::uint64_t(c.z) << 42)));
 }
-std::uint64_t tube_hash(std::uint64_t key, std::uint32_t i) { return mix64(key + (i + 1) * 0xD1B54A32D192ED03ull); }
+std::uint64_t tube_hash(std::uint64_t key, std::uint32_t i) { return splitmix64_mix(key + (i + 1) * 0xD1B54A32D192ED03ull); }
 
 // Everything that decides a tube's mass comes from one 64-bit hash, in integer fields and table
 // look-ups, so cell_summary can add up millions of cells quickly without walking any path; the
@@ -86,7 +86,7 @@ std::uint32_t tube_id(std::uint32_t base, std::uint32_t i) { return 1u + (base +
 // Smooth random walk as in generate_volume (bend velocity doing a damped random walk), plus steering:
 // inside the margin the direction is pulled back towards the cell, harder the deeper it goes, and a
 // reflection at the wall is the backstop, so no node gets further than kMargin - kReach outside.
-void walk(Rng& rng, vec3 p, vec3 d, float r0, int steps, vec3 lo, vec3 hi, std::vector<PathNode>& out) {
+void walk(SplitMix64& rng, vec3 p, vec3 d, float r0, int steps, vec3 lo, vec3 hi, std::vector<PathNode>& out) {
   const float phase = rng.uniform(0.0f, 2.0f * kPi);
   const float freq = rng.uniform(0.02f, 0.08f);
   const auto radius = [&](float s) { return std::clamp(r0 * (1.0f + 0.2f * std::sin(phase + freq * s)), 1.0f, kMaxRadius); };
@@ -113,21 +113,6 @@ void walk(Rng& rng, vec3 p, vec3 d, float r0, int steps, vec3 lo, vec3 hi, std::
 
 }  // namespace
 
-vec3 Rng::in_ball() {
-  for (;;) {
-    const vec3 v(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
-    if (glm::dot(v, v) <= 1.0f) return v;
-  }
-}
-
-vec3 Rng::unit() {
-  for (;;) {
-    const vec3 v = in_ball();
-    const float l2 = glm::dot(v, v);
-    if (l2 > 1e-4f) return v / std::sqrt(l2);
-  }
-}
-
 ivec3 cell_count(const Params& p) { return (p.dims + kCell - 1) / kCell; }
 
 void cell_paths(const Params& p, ivec3 c, PathSet& out) {
@@ -139,7 +124,7 @@ void cell_paths(const Params& p, ivec3 c, PathSet& out) {
     const std::uint64_t h = tube_hash(key, i);
     const TubeParams t = tube_params(h);
     const std::uint32_t id = tube_id(base, i);
-    Rng rng(h ^ 0x632BE59BD9B4E019ull);
+    SplitMix64 rng = keyed_rng(h ^ 0x632BE59BD9B4E019ull);
     const vec3 start = lo + vec3(rng.uniform(), rng.uniform(), rng.uniform()) * (hi - lo);
     const std::uint32_t main_begin = std::uint32_t(out.nodes.size());
     walk(rng, start, rng.unit(), radius_table().r0[t.radius_index], t.steps, lo, hi, out.nodes);
@@ -208,7 +193,7 @@ void cell_tube_masses(const Params& p, ivec3 c, std::vector<TubeMass>& out) {
     tube_mass(t, m.mass, m.core);
     m.id = tube_id(base, i);
     // The first draws of the path's own stream: its start and initial direction (as cell_paths).
-    Rng rng(h ^ 0x632BE59BD9B4E019ull);
+    SplitMix64 rng = keyed_rng(h ^ 0x632BE59BD9B4E019ull);
     const vec3 start = lo + vec3(rng.uniform(), rng.uniform(), rng.uniform()) * (hi - lo);
     const vec3 d = rng.unit();
     m.a = start;
@@ -223,7 +208,7 @@ namespace {
 // the seed), so fibres are not axis-aligned yet stay local: in coordinates sheared by the tilt, a
 // fibre stays within kFibreWander of its lattice seed.
 vec2 family_tilt(const Params& p, int axis) {
-  Rng rng(std::uint64_t(p.seed) * 0x9E3779B97F4A7C15ull + std::uint64_t(axis) + 1);
+  SplitMix64 rng = keyed_rng(std::uint64_t(p.seed) * kSplitMixGamma + std::uint64_t(axis) + 1);
   const float angle = rng.uniform(0.0f, 2.0f * kPi), m = rng.uniform(0.15f, 0.3f);
   return m * vec2(std::cos(angle), std::sin(angle));
 }
@@ -243,14 +228,14 @@ void fibres_near(const Params& p, vec3 lo, vec3 hi, std::vector<Fibre>& out) {
     const float v_lo = lo[v] - std::max(s0.y, s1.y) - reach, v_hi = hi[v] - std::min(s0.y, s1.y) + reach;
     const int i0 = int(std::floor(u_lo / kFibreGrid)), i1 = int(std::floor(u_hi / kFibreGrid));
     const int j0 = int(std::floor(v_lo / kFibreGrid)), j1 = int(std::floor(v_hi / kFibreGrid));
-    const std::uint64_t family = mix64(std::uint64_t(p.seed) * 0xC2B2AE3D27D4EB4Full + std::uint64_t(a) + 1);
+    const std::uint64_t family = splitmix64_mix(std::uint64_t(p.seed) * 0xC2B2AE3D27D4EB4Full + std::uint64_t(a) + 1);
     for (int j = j0; j <= j1; ++j) {
       for (int i = i0; i <= i1; ++i) {
-        const std::uint64_t key = mix64(family ^ ((std::uint64_t(std::uint32_t(i)) << 32) | std::uint32_t(j)));
+        const std::uint64_t key = splitmix64_mix(family ^ ((std::uint64_t(std::uint32_t(i)) << 32) | std::uint32_t(j)));
         const std::uint64_t pick = key % 10;
         const int count = pick < 3 ? 0 : pick < 8 ? 1 : 2;  // 0.9 fibres per lattice cell and axis
         for (int k = 0; k < count; ++k) {
-          Rng rng(key + std::uint64_t(k + 1) * 0x9E3779B97F4A7C15ull);
+          SplitMix64 rng = keyed_rng(key + std::uint64_t(k + 1) * kSplitMixGamma);
           Fibre f;
           f.axis = a;
           f.u0 = (float(i) + rng.uniform()) * kFibreGrid;

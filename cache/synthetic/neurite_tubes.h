@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "core/math.h"
+#include "core/rng.h"
 
 namespace sl::neurites {
 
@@ -61,25 +62,8 @@ struct Params {
   std::uint32_t seed = 1;
 };
 
-// SplitMix64 (as in generate.cpp): fully specified, so a seed means the same volume everywhere.
-inline std::uint64_t mix64(std::uint64_t z) {
-  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-  z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-  return z ^ (z >> 31);
-}
-
-class Rng {
- public:
-  explicit Rng(std::uint64_t key) : s_(mix64(key)) {}
-  std::uint64_t next() { return mix64(s_ += 0x9E3779B97F4A7C15ull); }
-  float uniform() { return float(next() >> 40) * 0x1p-24f; }  // [0, 1)
-  float uniform(float a, float b) { return a + (b - a) * uniform(); }
-  vec3 in_ball();
-  vec3 unit();
-
- private:
-  std::uint64_t s_;
-};
+// A tube's own stream, keyed by its hash: SplitMix64 seeded with the mixed key.
+inline SplitMix64 keyed_rng(std::uint64_t key) { return SplitMix64(splitmix64_mix(key)); }
 
 struct PathNode {
   vec3 p, d;

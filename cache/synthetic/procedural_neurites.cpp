@@ -1,8 +1,5 @@
 #include "cache/synthetic/procedural_neurites.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <atomic>
 #include <charconv>
@@ -15,6 +12,7 @@
 #include "cache/pyramid.h"
 #include "core/config.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl {
 namespace {
@@ -245,7 +243,7 @@ void exact(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i
 void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float ds, bool per_sample) {
   std::vector<Fibre> fibres;
   fibres_near(p, lo0, hi0, fibres);
-  tbb::parallel_for(std::size_t(0), fibres.size(), [&](std::size_t fi) {
+  parallel_for(std::size_t(0), fibres.size(), [&](std::size_t fi) {
     const Fibre& f = fibres[fi];
     const float t_lo = std::max(lo0[f.axis], 0.0f), t_hi = std::min(hi0[f.axis], float(p.dims[f.axis]));
     Accumulator::Run run;
@@ -278,7 +276,7 @@ void path_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* 
   ivec3 c0, c1;
   cell_range(p, lo0, hi0, c0, c1);
   const ivec3 nc = c1 - c0 + 1;
-  tbb::parallel_for(std::int64_t(0), std::int64_t(nc.x) * nc.y * nc.z, [&](std::int64_t ci) {
+  parallel_for(std::int64_t(0), std::int64_t(nc.x) * nc.y * nc.z, [&](std::int64_t ci) {
     const ivec3 c = c0 + ivec3(int(ci % nc.x), int(ci / nc.x % nc.y), int(ci / (std::int64_t(nc.x) * nc.y)));
     PathSet paths;
     cell_paths(p, c, paths);
@@ -315,7 +313,7 @@ void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t
     ivec3 c0, c1;
     cell_range(p, lo0, hi0, c0, c1);
     const ivec3 m = c1 - c0 + 1;
-    tbb::parallel_for(std::int64_t(0), std::int64_t(m.x) * m.y * m.z, [&](std::int64_t ci) {
+    parallel_for(std::int64_t(0), std::int64_t(m.x) * m.y * m.z, [&](std::int64_t ci) {
       const ivec3 c = c0 + ivec3(int(ci % m.x), int(ci / m.x % m.y), int(ci / (std::int64_t(m.x) * m.y)));
       std::vector<TubeMass> tubes;
       cell_tube_masses(p, c, tubes);
@@ -340,7 +338,7 @@ void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t
     // scaled up: about 128 tubes, so its mean is within ~15 % (cells vary by ~35 %), near the u8
     // rounding of these levels (means of 1-3), and the 8 TiB example's coarsest brick stays cheap.
     const int k = s / kCell, stride = std::max(1, k / 2);
-    tbb::parallel_for(0, n.z * n.y, [&](int row) {
+    parallel_for(0, n.z * n.y, [&](int row) {
       const int z = row / n.y, y = row % n.y;
       for (int x = 0; x < n.x; ++x) {
         const ivec3 v = first + ivec3(x, y, z);

@@ -248,3 +248,40 @@ TEST(CliOutOfCore, BenchReportsFramesToConvergencePerView) {
 
 }  // namespace
 }  // namespace sl
+
+namespace sl {
+namespace {
+
+// A real NIfTI-1 file written by another tool: the Colin27 T1 template of Debian's mricron-data
+// (what scripts/bench-peers renders). info reads its header, render reads it whole, and the voxels are
+// those `ingest` streams into a store.
+TEST(Cli, NiftiFromMricronRendersAndReportsItsHeader) {
+  const std::string nii = "/usr/share/mricron/templates/ch2.nii.gz";
+  if (!std::filesystem::exists(nii)) {
+    SL_SKIP_OR_FAIL("mricron-data is not installed (" + nii + ")");
+  }
+  test::RunResult r = test::run_sparseleap("info " + nii);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("dims    181 x 217 x 181"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("type    u8"), std::string::npos) << r.output;
+  const auto dir = test::scratch_dir();
+  const std::string out = (dir / "mri").string();
+  r = test::run_sparseleap("render --backend cpu --size 48x40 --volume " + nii + " --out " + out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  float alpha = 0.0f;
+  for (const vec4& c : read_exr(out + ".exr").rgba) alpha += c.w;
+  EXPECT_GT(alpha, 50.0f) << "the head fills much of the frame";
+  // A truncated .nii.gz is one line naming the file.
+  const std::string cut = (dir / "cut.nii.gz").string();
+  {
+    std::ifstream in(nii, std::ios::binary);
+    std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    std::ofstream(cut, std::ios::binary) << bytes.substr(0, bytes.size() / 3);
+  }
+  expect_one_line_error("render --backend cpu --size 16x16 --volume " + cut + " --out " + (dir / "x").string(),
+                        "cut.nii.gz");
+  EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+}
+
+}  // namespace
+}  // namespace sl

@@ -11,6 +11,7 @@
 
 #include "core/occupancy_geometry.h"
 #include "core/occupancy_tree.h"
+#include "core/rng.h"
 #include "core/visibility_order.h"
 
 namespace sl {
@@ -207,16 +208,11 @@ TEST(SegmentList, BufferAndViewAddressPixels) {
 // ---- the SparseLeap property over random trees and rays (segment_rules.py, C++ edition) ----
 
 struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    std::uint64_t z = (s += 0x9E3779B97F4A7C15ull);
-    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ull;
-    z = (z ^ (z >> 27)) * 0x94D049BB133111EBull;
-    return z ^ (z >> 31);
-  }
-  float uniform(float a, float b) { return a + (b - a) * float(double(next() >> 11) * 0x1.0p-53); }
+  SplitMix64 g;
+  std::uint64_t next() { return g.next(); }
+  float uniform(float a, float b) { return a + (b - a) * float(g.uniform_double()); }
   int range(int a, int b) { return a + int(next() % std::uint64_t(b - a + 1)); }
-  bool coin(double p) { return double(next() >> 11) * 0x1.0p-53 < p; }
+  bool coin(double p) { return g.uniform_double() < p; }
 };
 
 struct Scene {
@@ -362,7 +358,7 @@ void check_conservative(const Scene& s, const std::vector<VisibilityEntry>& orde
 }
 
 void run_property(bool inside, bool orthographic) {
-  Rng rng{*rc::gen::arbitrary<std::uint64_t>()};
+  Rng rng{SplitMix64(*rc::gen::arbitrary<std::uint64_t>())};
   const Scene s = random_scene(rng, true);
   const Box3 vb = s.grid.volume_box();
   const float scale = glm::length(vb.hi);
@@ -389,7 +385,7 @@ void run_property(bool inside, bool orthographic) {
 // image): both sides of the plane are hit, so the leaf truth is ambiguous; every span must take the
 // class of a leaf whose closed box holds it (EMPTY is then conservative under the culling model).
 RC_GTEST_PROP(SegmentListProperty, RaysInSplitPlanesTakeAClassOfAnAdjacentLeaf, ()) {
-  Rng rng{*rc::gen::arbitrary<std::uint64_t>()};
+  Rng rng{SplitMix64(*rc::gen::arbitrary<std::uint64_t>())};
   const Scene s = random_scene(rng, true);
   const float scale = glm::length(s.grid.volume_box().hi);
   const bool inside = rng.coin(0.5);

@@ -58,6 +58,7 @@
 #include "core/occupancy_geometry.h"
 #include "core/occupancy_tree.h"
 #include "core/octree_skip.h"
+#include "core/parallel.h"
 #include "core/raycast.h"
 #include "core/segment_list.h"
 #include "core/segment_list_builder.h"
@@ -122,7 +123,7 @@ const BenchScene& scene() {
     // Tiles in a scattered order (tile i -> i * 617 mod 1024; 617 is odd, so it is a permutation):
     // rays within a tile stay coherent, as the renderer casts them, while any batch of a few tiles
     // samples the whole view (a short run does not measure only the top rows).
-    constexpr int T = kSegmentTileSize, kTilesX = kView / T, kTiles = kTilesX * kTilesX;
+    constexpr int T = kTileSize, kTilesX = kView / T, kTiles = kTilesX * kTilesX;
     static_assert(kView % T == 0 && kTiles == 1024);
     for (int i = 0; i < kTiles; ++i) {
       const int tile = int((std::int64_t(i) * 617) % kTiles);

@@ -5,12 +5,14 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <memory>
 #include <mutex>
 #include <thread>
 
 #include "apps/viewer/render_worker.h"
 #include "apps/viewer/stats_rows.h"
 #include "apps/viewer/view_settings.h"
+#include "core/error.h"
 #include "core/in_core_renderer.h"
 #include "cache/synthetic/generate.h"
 
@@ -172,9 +174,11 @@ TEST(RenderWorker, RendersTheLatestJobAndReportsErrorsWithoutStopping) {
   const GeneratedVolume g = generate_volume("neurites", ivec3(24), 1);
   InCoreRenderer renderer;
   int calls = 0;
-  RenderWorker w(&g.intensity, &g.labels, [&](const Scene& s, const RenderSettings& r) {
-    ++calls;
-    return renderer.render(s, r);
+  RenderWorker w(&g.intensity, &g.labels, [&] {
+    return RenderWorker::RenderFn([&](const Scene& s, const RenderSettings& r) {
+      ++calls;
+      return renderer.render(s, r);
+    });
   });
   auto tf = std::make_shared<const TransferFunction>(default_transfer_function(0.0f, 255.0f));
   RenderJob job;
@@ -220,11 +224,13 @@ TEST(RenderWorker, ANewerJobReplacesOneNotYetStarted) {
   std::mutex gate;
   gate.lock();  // holds the first frame until three more jobs are queued
   std::atomic<bool> started{false};
-  RenderWorker w(&g.intensity, nullptr, [&](const Scene& s, const RenderSettings& r) {
-    started = true;
-    std::lock_guard hold(gate);
-    rendered.push_back(std::uint64_t(r.width));
-    return renderer.render(s, r);
+  RenderWorker w(&g.intensity, nullptr, [&] {
+    return RenderWorker::RenderFn([&](const Scene& s, const RenderSettings& r) {
+      started = true;
+      std::lock_guard hold(gate);
+      rendered.push_back(std::uint64_t(r.width));
+      return renderer.render(s, r);
+    });
   });
   RenderJob job;
   job.camera = default_camera(g.intensity.desc().extent());
@@ -241,6 +247,43 @@ TEST(RenderWorker, ANewerJobReplacesOneNotYetStarted) {
   const std::optional<RenderResult> r = w.take();
   ASSERT_TRUE(r.has_value());
   EXPECT_EQ(r->width, 11);  // the newest frame; the older finished one was dropped
+}
+
+TEST(RenderWorker, MakesUsesAndDestroysTheRendererOnItsOwnThread) {
+  const GeneratedVolume g = generate_volume("neurites", ivec3(16), 1);
+  struct Owner {
+    std::thread::id* destroyed_on;
+    ~Owner() { *destroyed_on = std::this_thread::get_id(); }
+  };
+  std::thread::id made_on, rendered_on, destroyed_on;
+  {
+    RenderWorker w(&g.intensity, nullptr, [&] {
+      made_on = std::this_thread::get_id();
+      auto owner = std::make_shared<Owner>(Owner{&destroyed_on});
+      auto renderer = std::make_shared<InCoreRenderer>();
+      return RenderWorker::RenderFn([&, owner, renderer](const Scene& s, const RenderSettings& r) {
+        rendered_on = std::this_thread::get_id();
+        return renderer->render(s, r);
+      });
+    });
+    EXPECT_NE(made_on, std::this_thread::get_id());  // made before the constructor returned
+    RenderJob job;
+    job.camera = default_camera(g.intensity.desc().extent());
+    job.tf = std::make_shared<const TransferFunction>(default_transfer_function(0.0f, 255.0f));
+    job.settings.width = job.settings.height = 8;
+    w.submit(job);
+    w.wait_idle();
+    ASSERT_TRUE(w.take().has_value());
+  }
+  EXPECT_EQ(rendered_on, made_on);
+  EXPECT_EQ(destroyed_on, made_on);
+}
+
+TEST(RenderWorker, ARendererThatCannotBeMadeFailsTheConstructor) {
+  const GeneratedVolume g = generate_volume("neurites", ivec3(8), 1);
+  EXPECT_THROW(RenderWorker(&g.intensity, nullptr,
+                            []() -> RenderWorker::RenderFn { throw InputError("--cache-mb", "too small"); }),
+               InputError);
 }
 
 }  // namespace

@@ -205,6 +205,32 @@ TEST_F(ViewerWindow, OutOfCoreViewStreamsBricksAndConverges) {
   EXPECT_GT(lit_fraction(Canvas{img}), 0.02);
 }
 
+// `--lists gl` in the viewer: the OpenGL builder runs on the render worker's own headless context (a
+// context is current on one thread) beside the window's, and the canvas is the CPU lists' image.
+TEST_F(ViewerWindow, GlListsShowTheCpuListsImage) {
+  const auto dir = scratch_dir();
+  Image img[2];
+  const char* lists[2] = {"cpu", "gl"};
+  for (int i = 0; i < 2; ++i) {
+    const std::string shot = (dir / (std::string(lists[i]) + ".png")).string();
+    const RunResult r = run_with_display(display_, "view " + kSmall + " --lists " + lists[i] +
+                                                       " --no-stats --frames 2 --screenshot " + shot);
+    if (i == 1 && r.exit_code != 0 && r.output.find("--lists") != std::string::npos) {
+      GTEST_SKIP() << "no GL list builder here: " << r.output;
+    }
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    img[i] = read_png(shot);
+  }
+  ASSERT_EQ(img[0].width, img[1].width);
+  ASSERT_EQ(img[0].height, img[1].height);
+  const Canvas a{img[0]}, b{img[1]};
+  int differing = 0;
+  for (int y = 0; y < kCanvasH; ++y)
+    for (int x = 0; x < kCanvasW; ++x) differing += a.at(x, y) != b.at(x, y);
+  EXPECT_EQ(differing, 0);
+  EXPECT_GT(lit_fraction(a), 0.02);
+}
+
 // No window is needed for these: bad input and a missing display are one line and a non-zero exit.
 TEST(ViewerCli, NoDisplayIsOneClearLine) {
 #ifndef SL_HAVE_VIEWER

@@ -14,9 +14,7 @@
 #include <numeric>
 #include <optional>
 
-#include <tbb/global_control.h>
-
-#include "apps/backend.h"
+#include "apps/scene_renderer.h"
 #include "apps/viewer/label_state.h"
 #include "apps/viewer/orbit_controller.h"
 #include "apps/viewer/path_recorder.h"
@@ -25,9 +23,9 @@
 #include "apps/viewer/stats_rows.h"
 #include "apps/viewer/tf_editor.h"
 #include "apps/viewer/ui/panels.h"
-#include "apps/viewer/ui/viewer_scene.h"
 #include "apps/viewer/ui/window.h"
 #include "core/error.h"
+#include "core/parallel.h"
 
 namespace sl::viewer {
 
@@ -83,10 +81,12 @@ struct Drag {
   double last_wheel = -1e9;
 };
 
+using ViewerScene = app::SourceScene;
+
 // Options checked before the (possibly slow) data load, so a typo fails at once.
-ViewSettings settings_from(const ViewerOptions& o) {
+ViewSettings settings_from(const ViewerOptions& o, const app::CheckedOptions& checked) {
   ViewSettings v;
-  v.render = app::make_render_settings(o.size, o.mode, o.method, o.view, o.step, o.ert, o.block, o.boxes);
+  v.render = checked.settings;
   if (!(o.scale > 0.0f && o.scale <= 1.0f)) throw InputError("--scale", "must be in (0, 1]");
   if (!(o.preview_scale > 0.0f && o.preview_scale <= 1.0f)) throw InputError("--preview-scale", "must be in (0, 1]");
   if (o.frames < 0 || o.frames > 100000) throw InputError("--frames", "must be between 0 and 100000");
@@ -97,32 +97,16 @@ ViewSettings settings_from(const ViewerOptions& o) {
   return v;
 }
 
-void complete_settings(ViewSettings& v, const ViewerOptions& o, const ViewerScene& sc) {
-  // Same iso default as `render`, so a view can be reproduced there.
-  v.render.iso = !std::isnan(o.iso) ? o.iso
-                 : sc.desc.type == VoxelType::U8 ? 128.0f
-                                                 : 0.5f * (sc.tf.vmin() + sc.tf.vmax());
-  v.has_labels = sc.labels != nullptr;
-  v.out_of_core = sc.out_of_core();
-}
-
-// The checks the renderer would make on the first frame, made before a window opens.
-void validate_start(const ViewSettings& v, const ViewerOptions& o, const ViewerScene& sc) {
-  const RenderSettings& rs = v.render;
-  if (sc.volume) {
-    Scene probe;
-    probe.volume = sc.volume.get();
-    probe.labels = sc.labels.get();
-    probe.tf = &sc.tf;
-    probe.camera = sc.camera;
-    validate(probe, rs);
-  } else if (rs.mode == RenderMode::Labels) {
-    throw InputError("--mode", "labels mode needs a label volume (--labels)");
-  }
-  if (!method_available(v, rs.method)) {
-    throw InputError("--method", "out-of-core rendering supports sparseleap and none");
-  }
-  make_ray_generator(sc.camera, rs.width, rs.height, o.scene.camera.empty() ? "camera" : o.scene.camera);
+// The renderer is made on the render worker's thread (RenderWorker): a GL list builder's context
+// must be current where it renders.
+std::function<RenderWorker::RenderFn()> make_renderer(const ViewerScene& sc, const ViewerOptions& o,
+                                                      const app::CheckedOptions& checked, app::Backend backend) {
+  return [&sc, &o, checked, backend] {
+    auto r = std::make_shared<app::SceneRenderer>(sc, o.render, checked, backend);
+    // The worker's Scene carries the snapshots (tf, labels, camera); the data come from the scene.
+    return RenderWorker::RenderFn(
+        [r](const Scene& s, const RenderSettings& rs) { return r->render(*s.tf, s.enabled, s.camera, rs); });
+  };
 }
 
 void report(const std::vector<double>& ms, const Shown& shown) {
@@ -218,22 +202,22 @@ void save_screenshot(Window& win, const std::string& path, PanelState& st) {
 
 int run_viewer(const ViewerOptions& o) {
   // Everything that can be wrong with the input is checked before a window opens.
-  std::unique_ptr<tbb::global_control> threads;
-  if (o.threads > 0) {
-    threads = std::make_unique<tbb::global_control>(tbb::global_control::max_allowed_parallelism, o.threads);
-  }
+  const app::CheckedOptions checked = app::check_render_options(o.render);
+  const ThreadLimit threads(o.render.threads);
   if (!o.screenshot.empty()) check_output_prefix(o.screenshot);
   if (!o.record_path.empty()) check_output_prefix(o.record_path);
   Session s;
-  s.view = settings_from(o);
-  const ViewerScene sc = load_viewer_scene(o);
-  complete_settings(s.view, o, sc);
-  validate_start(s.view, o, sc);
+  s.view = settings_from(o, checked);
+  const ViewerScene sc = app::load_source_scene(o.render.scene, o.render.out_of_core());
+  app::complete_settings(o.render, sc, s.view.render);  // same checks and iso default as `render`
+  s.view.has_labels = sc.labels != nullptr;  // labels mode and picking need the label voxels
+  s.view.out_of_core = sc.out_of_core();
   const int canvas_w = s.view.render.width;
   const int canvas_h = s.view.render.height;
   std::string backend_notice;
-  const app::Backend backend = app::choose_backend(o.backend, &backend_notice);
-  RenderWorker::RenderFn render_fn = make_render_fn(sc, o, backend);
+  const app::Backend backend = app::choose_backend(o.render.backend, &backend_notice);
+  std::unique_ptr<Window> win;  // declared before the worker: destroyed after it, so no frame wakes a closed GLFW
+  RenderWorker worker(sc.volume.get(), sc.labels.get(), make_renderer(sc, o, checked, backend), &Window::wake);
   float lo = 0.0f, hi = 255.0f;
   if (sc.volume) {
     data_domain(*sc.volume, lo, hi);
@@ -246,10 +230,9 @@ int run_viewer(const ViewerOptions& o) {
   if (sc.volume) s.histogram = value_histogram(*sc.volume, kHistogramBins, s.tf->lo(), s.tf->hi());
   if (sc.labels) s.labels.emplace(sc.label_count, sc.enabled);
   s.orbit.emplace(sc.camera);
-  if (!o.scene.tf.empty()) s.panel.tf_file = o.scene.tf;
+  if (!o.render.scene.tf.empty()) s.panel.tf_file = o.render.scene.tf;
   if (!o.record_path.empty()) s.panel.path_file = o.record_path;
 
-  std::unique_ptr<Window> win;
   try {
     const std::string title = "sparseleap view: " + sc.name + (sc.out_of_core() ? " (out of core)" : "");
     win = std::make_unique<Window>(canvas_w + int(kPanelWidth), canvas_h, title);
@@ -259,8 +242,6 @@ int run_viewer(const ViewerOptions& o) {
   }
   if (!backend_notice.empty()) std::fputs(backend_notice.c_str(), stderr);  // all checks passed
   FrameTexture texture;
-  // Declared after the window: destroyed first, so it never wakes a terminated GLFW.
-  RenderWorker worker(sc.volume.get(), sc.labels.get(), std::move(render_fn), &Window::wake);
 
   const bool scripted = o.frames > 0 || !o.screenshot.empty();
   const int frames_wanted = o.frames > 0 ? o.frames : 3;

@@ -1,0 +1,71 @@
+// The render options `render`, `bench` and `view` share: registered once, with one help text each,
+// and checked once, so every command accepts the same flags and rejects bad values with the same
+// line (`sparseleap: error: OPTION: reason`).
+#pragma once
+
+#include <cmath>
+#include <cstddef>
+#include <string>
+
+#include "apps/backend.h"
+#include "apps/scene_loader.h"
+#include "cache/out_of_core.h"
+#include "core/frame.h"
+
+namespace CLI {
+class App;
+}
+
+namespace sl::app {
+
+enum class Command { Render, Bench, View };
+
+struct RenderOptions {
+  SceneOptions scene;           // --volume --labels --tf --enable, --camera (render, view)
+  std::string size;             // WxH; the default is the command's
+  std::string mode = "dvr";
+  std::string method = "sparseleap";  // render, view (bench takes --methods)
+  std::string view = "image";         // render, view
+  bool boxes = false;                 // render, view
+  float iso = NAN;              // NaN: 128 for u8, else the transfer function's mid-range
+  float step = 0.5f;
+  int block = 16;
+  bool ert = false;
+  std::string backend = "auto";
+  std::string lists = "cpu";
+  std::string cuda_sampler = "slots";
+  int threads = 0;
+  // Out of core.
+  std::size_t cache_mb = 0;     // 0: in core, unless the volume is procedural (then 1024)
+  int brick = 32;
+  int lod = -1;
+  float lod_bias = 1.0f;
+  unsigned retire_frames = 60;
+
+  // Rendered through the page table and brick cache: --cache-mb, or a procedural volume.
+  bool out_of_core() const;
+};
+
+// Registers the options above on `c` (those of `cmd`), with what `o` holds as the defaults.
+void add_render_options(CLI::App& c, RenderOptions& o, Command cmd);
+
+// The options checked before any (slow) data load.
+struct CheckedOptions {
+  RenderSettings settings;  // iso still the default: complete_settings sets it
+  ListSource lists = ListSource::Cpu;
+  CudaSampler cuda_sampler = CudaSampler::Slots;
+};
+CheckedOptions check_render_options(const RenderOptions& o);
+
+// What needs the loaded scene, the same in every command: labels mode needs a label volume (and out
+// of core the set to show, --enable); the iso default depends on the data.
+void complete_settings(const RenderOptions& o, const SourceScene& s, RenderSettings& rs);
+
+// The out-of-core renderer's settings from the options (cache 1024 MB when --cache-mb is not given).
+OutOfCoreSettings out_of_core_settings(const RenderOptions& o);
+
+// The methods out of core (the page-table sampler walks segment lists or every sample); also what the
+// viewer's method keys and buttons offer there.
+inline bool out_of_core_method(SkipMethod m) { return m == SkipMethod::SparseLeap || m == SkipMethod::None; }
+
+}  // namespace sl::app

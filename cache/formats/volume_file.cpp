@@ -1,0 +1,46 @@
+#include "cache/formats/volume_file.h"
+
+#include <filesystem>
+
+#include "cache/formats/ingest.h"
+#include "cache/formats/nrrd.h"
+#include "core/error.h"
+
+namespace sl {
+
+namespace {
+
+bool ends_with(const std::string& s, const std::string& e) {
+  return s.size() >= e.size() && s.compare(s.size() - e.size(), e.size(), e) == 0;
+}
+
+}  // namespace
+
+bool is_slab_volume_path(const std::string& path) {
+  std::string p = path;
+  for (char& c : p) c = char(std::tolower(static_cast<unsigned char>(c)));
+  std::error_code ec;
+  return ends_with(p, ".nii") || ends_with(p, ".nii.gz") || ends_with(p, ".tif") || ends_with(p, ".tiff") ||
+         std::filesystem::is_directory(path, ec);
+}
+
+VolumeDesc read_volume_file_desc(const std::string& path) {
+  if (!is_slab_volume_path(path)) return read_nrrd_header(path);
+  return open_slab_reader(path)->desc();
+}
+
+Volume read_volume_file(const std::string& path) {
+  if (!is_slab_volume_path(path)) return read_nrrd(path);
+  const std::unique_ptr<SlabReader> r = open_slab_reader(path);
+  Volume v(r->desc(), path);
+  const VolumeDesc& d = r->desc();
+  const std::size_t plane = std::size_t(d.dims.x) * std::size_t(d.dims.y) * std::size_t(voxel_size(d.type));
+  constexpr int kSlab = 16;  // z-planes per read: the readers stream, so any slab size works
+  for (int z = 0; z < d.dims.z; z += kSlab) {
+    const int nz = std::min(kSlab, d.dims.z - z);
+    r->read(z, nz, v.data() + std::size_t(z) * plane);
+  }
+  return v;
+}
+
+}  // namespace sl
