@@ -1,5 +1,7 @@
 #include "apps/render_options.h"
 
+#include "core/fine_occupancy.h"
+
 #include <CLI/CLI.hpp>
 #include <regex>
 
@@ -54,6 +56,10 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   c.add_option("--iso", o.iso, "Iso value (iso mode); default 128 for u8, mid-range otherwise");
   c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in (0, 64]")->capture_default_str();
   c.add_option("--block", o.block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
+  c.add_option("--fine-cell", o.fine_cell,
+               "Fine occupancy cell edge in voxels inside SparseLeap segments (in core): 4 or 8, 0 = off; the "
+               "image is the same, only clear cells' samples are skipped")
+      ->capture_default_str();
   c.add_flag("--ert", o.ert, "Early ray termination at opacity 0.99");
   if (cmd != Command::Bench) {
     c.add_option("--view", o.view, "image or depth-complexity" + key("D"))->capture_default_str();
@@ -90,6 +96,8 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   rs.step = o.step;
   rs.ert = o.ert;
   rs.block = o.block;
+  rs.fine_cell = o.fine_cell;
+  validate_fine_cell(o.fine_cell);
   rs.boxes_overlay = o.boxes;
   if (o.view == "depth-complexity") {
     rs.depth_complexity_view = true;

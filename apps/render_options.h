@@ -30,6 +30,7 @@ struct RenderOptions {
   float iso = NAN;              // NaN: 128 for u8, else the transfer function's mid-range
   float step = 0.5f;
   int block = 16;
+  int fine_cell = 4;            // fine occupancy cells inside SparseLeap segments (0: off)
   bool ert = false;
   std::string backend = "auto";
   std::string lists = "cpu";

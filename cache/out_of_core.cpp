@@ -16,16 +16,6 @@ struct OutOfCoreRenderer::Cull {
 
 namespace {
 
-std::uint64_t mix(std::uint64_t h, std::uint64_t v) {
-  h ^= v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2);
-  return h;
-}
-std::uint64_t float_bits(float f) {
-  std::uint32_t u;
-  std::memcpy(&u, &f, 4);
-  return u;
-}
-
 int log2_exact(int v) {
   int l = 0;
   while ((1 << l) < v) ++l;
@@ -316,14 +306,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   cull.params.tf = scene.tf;
   cull.params.iso = s.iso;
   cull.params.enabled = scene.enabled;
-  std::uint64_t key = mix(mix(std::uint64_t(s.mode), float_bits(s.iso)), std::uint64_t(scene.enabled != nullptr));
-  for (const TfPoint& q : scene.tf->points()) {
-    key = mix(key, float_bits(q.value));
-    for (int c = 0; c < 4; ++c) key = mix(key, float_bits(q.rgba[c]));
-  }
-  if (scene.enabled) {
-    for (std::uint32_t w : scene.enabled->words()) key = mix(key, w);
-  }
+  const std::uint64_t key = cull_key(cull.params);
   Timer t;
   if (cull_valid_ && key != cull_key_) recull(cull);
   cull_key_ = key;

@@ -9,6 +9,7 @@
 
 #include "core/camera.h"
 #include "core/config.h"
+#include "core/fine_occupancy.h"
 #include "core/octree_skip.h"
 #include "core/raycast.h"
 #include "core/render_mode.h"
@@ -22,6 +23,7 @@ struct SkipInputs {
   SkipMethod method = SkipMethod::None;
   SegmentListView lists;  // sparseleap, bbox
   SkipOctreeView octree;  // octree
+  FineOccupancyView fine; // sparseleap: cells skipped inside sampled segments (empty: off; bbox never sets it)
 };
 
 // The pixel's ray and its span inside the volume box; false when the ray misses the box (nothing to
@@ -72,7 +74,7 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
         if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
         caster.march_span(ray, t_entry, sample_index(seg.t0, t_entry, caster.p.inv_dt),
                           sample_index(seg.t1, t_entry, caster.p.inv_dt), k_end, acc,
-                          seg.cls == OccupancyClass::Unknown);
+                          seg.cls == OccupancyClass::Unknown, &skip.fine);
         if (seg.cls == OccupancyClass::Unknown) ++misses;  // occupancy miss (resolved out of core)
       }
       return segments;

@@ -2,6 +2,8 @@
 
 #include "core/parallel.h"
 
+#include <cstring>
+
 namespace sl {
 
 OccupancyClass classify_block(const BlockMetadata& m, const CullParams& p) {
@@ -21,6 +23,30 @@ OccupancyClass classify_block(const BlockMetadata& m, const CullParams& p) {
       break;  // every sample may be the maximum
   }
   return OccupancyClass::NonEmpty;
+}
+
+namespace {
+std::uint64_t mix(std::uint64_t h, std::uint64_t v) { return h ^ (v + 0x9e3779b97f4a7c15ull + (h << 6) + (h >> 2)); }
+std::uint64_t float_bits(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+}  // namespace
+
+std::uint64_t cull_key(const CullParams& p) {
+  std::uint64_t key = mix(mix(std::uint64_t(p.mode), float_bits(p.iso)), std::uint64_t(p.enabled != nullptr));
+  key = mix(key, std::uint64_t(p.tf != nullptr));
+  if (p.tf) {
+    for (const TfPoint& q : p.tf->points()) {
+      key = mix(key, float_bits(q.value));
+      for (int c = 0; c < 4; ++c) key = mix(key, float_bits(q.rgba[c]));
+    }
+  }
+  if (p.enabled) {
+    for (const std::uint32_t w : p.enabled->words()) key = mix(key, w);
+  }
+  return key;
 }
 
 std::vector<OccupancyClass> classify_blocks(const BlockMetadataTable& table, const CullParams& p) {

@@ -35,6 +35,11 @@ struct CullParams {
 // Mip is never empty by value. NON_EMPTY otherwise; UNKNOWN when the metadata is not computed yet.
 OccupancyClass classify_block(const BlockMetadata& m, const CullParams& p);
 
+// A key of everything classify_block reads besides the metadata (mode, iso, the transfer function's
+// points, the enabled labels): equal keys give equal classes, so derived structures are rebuilt only
+// when it changes.
+std::uint64_t cull_key(const CullParams& p);
+
 // Every block of the table (parallel), in block_index order. Reuses the metadata: no recomputation.
 std::vector<OccupancyClass> classify_blocks(const BlockMetadataTable& table, const CullParams& p);
 

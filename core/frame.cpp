@@ -1,6 +1,7 @@
 #include "core/frame.h"
 
 #include "core/error.h"
+#include "core/fine_occupancy.h"
 
 namespace sl {
 
@@ -11,6 +12,7 @@ void validate(const Scene& scene, const RenderSettings& s) {
     throw InputError("--size", "image size must be between 1x1 and 16384x16384");
   }
   if (!(s.step > 0.0f) || s.step > 64.0f) throw InputError("--step", "step must be in (0, 64]");
+  validate_fine_cell(s.fine_cell);
   if (scene.labels && scene.labels->dims() != scene.volume->dims()) {
     throw InputError("--labels", "label volume dims differ from the intensity volume's");
   }

@@ -22,6 +22,7 @@ struct RenderSettings {
   float iso = 128.0f;
   bool ert = false;
   int block = 16;          // culling block edge in voxels
+  int fine_cell = 4;       // fine occupancy cell edge in voxels inside SparseLeap segments (0: off)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
   bool depth_complexity_view = false;  // image shows segments (or octree nodes) per ray
   bool boxes_overlay = false;          // draw the occupancy geometry over the image

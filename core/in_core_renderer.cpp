@@ -6,6 +6,7 @@
 #include "core/cast_frame.h"
 #include "core/culling.h"
 #include "core/error.h"
+#include "core/fine_occupancy.h"
 #include "core/occupancy_tree.h"
 #include "core/octree_skip.h"
 #include "core/raycast.h"
@@ -23,6 +24,13 @@ struct InCoreRenderer::State {
   std::vector<OccupancyClass> classes;
   std::optional<OccupancyTree> tree;
   std::optional<SkipOctree> octree;
+  // Fine occupancy inside SparseLeap segments: cell metadata per volume and cell size (like the
+  // blocks'), bits per culling input (re-derived from the cached metadata when those change).
+  int fine_cell = 0;
+  std::optional<BlockMetadataTable> fine_metadata;
+  FineOccupancy fine;
+  std::uint64_t fine_key = 0;
+  bool fine_valid = false;
 };
 
 InCoreRenderer::InCoreRenderer() : state_(std::make_unique<State>()) {}
@@ -113,7 +121,33 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   } else {
     in.lists = pipeline_.lists(*S.tree, s.method, gen, s.gap_eps * p.dt, st);
   }
+  if (s.method == SkipMethod::SparseLeap && s.fine_cell > 0 && s.mode != RenderMode::Iso) {
+    in.fine = fine_occupancy(scene, s, cull, st);
+  }
   return in;
+}
+
+FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const RenderSettings& s, const CullParams& cull,
+                                                 Stats& st) {
+  State& S = *state_;
+  Timer t;
+  if (!S.fine_metadata || S.fine_cell != s.fine_cell) {
+    const BlockGrid cells = make_block_grid(scene.volume->dims(), scene.volume->desc().spacing, s.fine_cell);
+    VolumeView lv;
+    if (scene.labels) lv = scene.labels->view();
+    S.fine_metadata = compute_all_block_metadata(cells, scene.volume->view(), scene.labels ? &lv : nullptr);
+    st.metadata_computed += S.fine_metadata->blocks.size();
+    S.fine_cell = s.fine_cell;
+    S.fine_valid = false;
+  }
+  const std::uint64_t key = cull_key(cull);
+  if (!S.fine_valid || S.fine_key != key) {
+    S.fine.classify(*S.fine_metadata, cull);
+    S.fine_key = key;
+    S.fine_valid = true;
+  }
+  st.time_ms.metadata += t.ms();
+  return S.fine.view();
 }
 
 Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {

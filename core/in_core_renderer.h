@@ -11,6 +11,8 @@
 
 namespace sl {
 
+struct CullParams;
+struct FineOccupancyView;
 struct SkipInputs;
 
 class InCoreRenderer {
@@ -38,6 +40,8 @@ class InCoreRenderer {
   struct State;
   SkipInputs prepare_skipping(const Scene& scene, const RenderSettings& s, const CastParams& p,
                               const LabelSet* labels, const RayGenerator& gen, Stats& st);
+  // The fine occupancy grid for SparseLeap (core/fine_occupancy.h), built or re-derived as needed.
+  FineOccupancyView fine_occupancy(const Scene& scene, const RenderSettings& s, const CullParams& cull, Stats& st);
 
   std::unique_ptr<State> state_;
   FramePipeline pipeline_;

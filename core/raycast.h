@@ -8,6 +8,7 @@
 #include <cstdint>
 
 #include "core/config.h"
+#include "core/fine_occupancy.h"
 #include "core/labels.h"
 #include "core/math.h"
 #include "core/ray.h"
@@ -117,9 +118,10 @@ struct RayCaster {
   }
 
   // Samples k in [k0, k1). Returns false once the ray has terminated. `unknown`: the span's occupancy
-  // is UNKNOWN (an occupancy miss for the out-of-core sampler).
+  // is UNKNOWN (an occupancy miss for the out-of-core sampler). `fine` (optional): leave out the
+  // samples that fall in its clear cells (exact: they contribute nothing; core/fine_occupancy.h).
   SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc,
-                            bool unknown = false) const {
+                            bool unknown = false, const FineOccupancyView* fine = nullptr) const {
     if (acc.done) return false;
     // The loop works on local copies (of the caster too): through references the compiler must
     // assume a store to the accumulator may change the sampler's or the table's fields and reloads
@@ -127,14 +129,18 @@ struct RayCaster {
     RayAccum a = acc;
     const Ray r = ray;
     const RayCaster self = *this;
-    const bool alive = self.march_local(r, t_entry, k0, k1, a, unknown);
+    // Iso needs every consecutive sample pair of a span to bracket crossings: no cell skipping there.
+    const bool alive = fine && fine->enabled() && self.p.mode != RenderMode::Iso
+                           ? self.template march_local<true>(r, t_entry, k0, k1, a, unknown, *fine)
+                           : self.template march_local<false>(r, t_entry, k0, k1, a, unknown, FineOccupancyView{});
     acc = a;
     return alive;
   }
 
  private:
+  template <bool kFine>
   SL_HOST_DEVICE SL_INLINE bool march_local(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc,
-                                            bool unknown) const {
+                                            bool unknown, const FineOccupancyView fine) const {
     SampleContext ctx;
     ctx.occupancy_unknown = unknown;
     if (p.mode == RenderMode::Iso && k0 > 0 && acc.prev_k != k0 - 1 && k0 < k1) {
@@ -149,9 +155,30 @@ struct RayCaster {
     // The last value whose opacity was zero: runs of equal values (background, uniform regions) skip
     // the table. The opacity is a function of the value alone, so this changes nothing but the cost.
     float clear_v = NAN;  // compares unequal to every value
+    int cell_end = k0;    // kFine: samples before this index lie in the current occupied cell
+    vec3 inv_dir{0.0f};
+    if constexpr (kFine) inv_dir = FineOccupancyView::inverse_direction(ray);
     for (int k = k0; k < k1; ++k) {
       const float t = t_entry + float(k) * p.dt;
       const vec3 pos = ray.at(t);
+      if constexpr (kFine) {
+        if (k >= cell_end) {
+          // Entering a cell: find the first grid sample past its exit, and skip the samples up to it
+          // when the cell is clear. Rounding can put that index at or before k: then this sample
+          // alone belongs to the cell.
+          const ivec3 c = fine.cell_of(pos);
+          // First grid index at or past the exit (a ceiling: the exit lies past t >= t_entry).
+          const float x = (fine.cell_exit(ray, inv_dir, c) - t_entry) * p.inv_dt;
+          int next = x < 2.0e9f ? int(x) : 2000000000;
+          next += float(next) < x ? 1 : 0;
+          next = next > k ? next : k + 1;
+          if (!fine.occupied(c)) {
+            k = next - 1;
+            continue;
+          }
+          cell_end = next;
+        }
+      }
       ctx.level = p.lod.level_at(t);
       const float v = volume.sample(pos, ctx);
       ++acc.samples;
@@ -217,10 +244,10 @@ struct RayCaster {
   // k1 < k_end): a crossing between a span's last sample and the first skipped one is found exactly as
   // a method without skipping finds it (march() already primes with the sample before k0).
   SL_HOST_DEVICE bool march_span(const Ray& ray, float t_entry, int k0, int k1, int k_end, RayAccum& acc,
-                                 bool unknown = false) const {
+                                 bool unknown = false, const FineOccupancyView* fine = nullptr) const {
     if (k1 > k_end) k1 = k_end;
     if (p.mode == RenderMode::Iso && k1 < k_end && k0 < k1) ++k1;
-    return march(ray, t_entry, k0, k1, acc, unknown);
+    return march(ray, t_entry, k0, k1, acc, unknown, fine);
   }
 
   // Refines a bracketed crossing by bisection, then shades it; false if its label is masked out.

@@ -170,6 +170,10 @@ class FrameInputs {
       nodes_.upload(skip.octree.nodes, node_count(skip.octree), stream);
       skip.octree.nodes = nodes_.get();
     }
+    if (skip.fine.bits) {
+      fine_.upload(skip.fine.bits, skip.fine.word_count(), stream);
+      skip.fine.bits = fine_.get();
+    }
   }
 
  private:
@@ -193,6 +197,7 @@ class FrameInputs {
   DeviceBuffer<std::uint32_t> bits_, counts_;
   DeviceBuffer<RayEvent> events_;
   DeviceBuffer<SkipOctreeNode> nodes_;
+  DeviceBuffer<std::uint64_t> fine_;
 };
 
 // Launches the method's kernel. kOctree = false leaves the octree kernel out (the out-of-core path

@@ -2,6 +2,7 @@
 // clear line naming the file, a non-zero exit, and no output left looking complete.
 #include <gtest/gtest.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -281,6 +282,34 @@ TEST(Cli, NiftiFromMricronRendersAndReportsItsHeader) {
   expect_one_line_error("render --backend cpu --size 16x16 --volume " + cut + " --out " + (dir / "x").string(),
                         "cut.nii.gz");
   EXPECT_FALSE(std::filesystem::exists(dir / "x.png"));
+}
+
+}  // namespace
+}  // namespace sl
+
+namespace sl {
+namespace {
+
+// --fine-cell changes how many samples SparseLeap takes, never the image (core/fine_occupancy.h).
+TEST(Cli, FineCellsKeepTheImageAndSkipSamples) {
+  const auto dir = test::scratch_dir();
+  std::vector<Image> frames;
+  std::vector<double> samples;
+  for (int cell : {0, 4, 8}) {
+    const std::string out = (dir / ("f" + std::to_string(cell))).string();
+    const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --enable fraction:0.3:2 "
+                                                   "--fine-cell " + std::to_string(cell) + " --out " + out);
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    frames.push_back(read_exr(out + ".exr"));
+    double n = 0;
+    for (float s : frames.back().channels.at("samples")) n += s;
+    samples.push_back(n);
+  }
+  for (std::size_t k = 1; k < frames.size(); ++k) {
+    EXPECT_EQ(std::memcmp(frames[k].rgba.data(), frames[0].rgba.data(), frames[0].rgba.size() * sizeof(vec4)), 0);
+    EXPECT_LT(samples[k], samples[0]);
+  }
+  expect_one_line_error("render --fine-cell 6 --out " + (dir / "bad").string(), "--fine-cell");
 }
 
 }  // namespace

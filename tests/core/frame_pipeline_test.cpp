@@ -172,10 +172,12 @@ TEST(FramePipeline, InCoreFramesCountTheirMetadataComputations) {
   RenderSettings s;
   s.width = s.height = 24;
   s.block = 8;
+  s.fine_cell = 4;
   InCoreRenderer r;
   const std::uint64_t before = block_metadata_computations();
   const Frame first = r.render(scene, s);
-  EXPECT_EQ(first.stats.metadata_computed, 5u * 4u * 3u);
+  // The culling blocks and the fine occupancy cells (10 x 8 x 6 of 4³ voxels), each once.
+  EXPECT_EQ(first.stats.metadata_computed, 5u * 4u * 3u + 10u * 8u * 6u);
   EXPECT_EQ(first.stats.metadata_blocks, 5u * 4u * 3u);
   EXPECT_EQ(block_metadata_computations() - before, first.stats.metadata_computed);
   scene.tf = &b;

@@ -1,0 +1,182 @@
+// The fine occupancy grid (core/fine_occupancy.h): skipping the grid samples of clear cells inside a
+// sampled span leaves every ray's result bit for bit as it was, and only removes samples.
+#include "core/fine_occupancy.h"
+
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cstring>
+
+#include "core/block_metadata.h"
+#include "core/culling.h"
+#include "core/error.h"
+#include "core/raycast.h"
+
+namespace sl {
+namespace {
+
+struct Rng {
+  std::uint64_t s;
+  std::uint64_t next() {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    return s >> 33;
+  }
+  float uni(float a, float b) { return a + (b - a) * float(next() % 100000u) / 100000.0f; }
+};
+
+// A blob of intensity with noise and shells of labels around a random centre (as culling_test.cpp).
+struct RandomScene {
+  VolumeDesc desc;
+  Volume vol, lab;
+  TransferFunction tf;
+  LabelSet enabled{6};
+  bool use_labels = false;
+
+  explicit RandomScene(Rng& r) {
+    desc.dims = ivec3(int(5 + r.next() % 30), int(5 + r.next() % 30), int(5 + r.next() % 30));
+    desc.spacing = vec3(r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f));
+    vol = Volume(desc);
+    VolumeDesc ld = desc;
+    ld.type = VoxelType::U16;
+    lab = Volume(ld);
+    const vec3 c(r.uni(0, float(desc.dims.x)), r.uni(0, float(desc.dims.y)), r.uni(0, float(desc.dims.z)));
+    const float falloff = r.uni(10.0f, 60.0f);
+    for (int z = 0; z < desc.dims.z; ++z)
+      for (int y = 0; y < desc.dims.y; ++y)
+        for (int x = 0; x < desc.dims.x; ++x) {
+          const float d = glm::length(vec3(x, y, z) - c);
+          vol.set(x, y, z, std::max(0.0f, 255.0f - falloff * d) + float(r.next() % 8));
+          lab.set(x, y, z, float(int(d / 3.0f) % 6));
+        }
+    const float cut = r.uni(0.0f, 250.0f);
+    tf = TransferFunction({{0.0f, vec4(0.0f)}, {cut, vec4(0.0f)}, {cut + 1.0f, vec4(0.9f, 0.6f, 0.3f, 0.4f)},
+                           {255.0f, vec4(1.0f)}});
+    use_labels = r.next() % 2 == 0;
+    for (std::uint32_t id = 1; id < 6; ++id) {
+      if (r.next() % 2) enabled.enable(id);
+    }
+  }
+};
+
+RC_GTEST_PROP(FineOccupancyProperty, SkippingClearCellsChangesNoRay, (std::uint64_t seed)) {
+  Rng r{seed};
+  RandomScene sc(r);
+  const int cell = r.next() % 2 ? 4 : 8;
+  const RenderMode modes[] = {RenderMode::Dvr, RenderMode::Labels, RenderMode::Mip};
+  const RenderMode mode = modes[r.next() % 3];
+  const VolumeView lv = sc.lab.view();
+  const BlockMetadataTable cells = compute_all_block_metadata(make_block_grid(sc.desc.dims, sc.desc.spacing, cell),
+                                                              sc.vol.view(), &lv);
+  CullParams cull;
+  cull.mode = mode;
+  cull.tf = &sc.tf;
+  cull.enabled = (sc.use_labels || mode == RenderMode::Labels) ? &sc.enabled : nullptr;
+  FineOccupancy fine;
+  fine.classify(cells, cull);
+  const FineOccupancyView fv = fine.view();
+
+  const float step = r.uni(0.2f, 1.5f);
+  RayCaster<DenseSampler<std::uint8_t, std::uint16_t>> caster;
+  caster.p.mode = mode;
+  caster.p.dt = step * sc.desc.min_spacing();
+  caster.p.inv_dt = 1.0f / caster.p.dt;
+  caster.p.spacing = sc.desc.spacing;
+  caster.p.tf = sc.tf.view(step);
+  caster.p.label_mask = sc.use_labels && mode != RenderMode::Labels;
+  caster.p.labels = sc.enabled.view();
+  caster.p.ert = r.next() % 2 == 0;
+  caster.volume.volume = DenseGrid<std::uint8_t>{sc.vol.as<std::uint8_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  caster.volume.labels = DenseGrid<std::uint16_t>{sc.lab.as<std::uint16_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+
+  const vec3 ext = sc.desc.extent();
+  const Box3 vbox{vec3(0.0f), ext};
+  for (int i = 0; i < 20; ++i) {
+    Ray ray;
+    // Origins outside and inside the box; directions with axis-parallel components now and then.
+    ray.origin = vec3(r.uni(-0.5f, 1.5f), r.uni(-0.5f, 1.5f), r.uni(-0.5f, 1.5f)) * ext;
+    const vec3 target = vec3(r.uni(0.1f, 0.9f), r.uni(0.1f, 0.9f), r.uni(0.1f, 0.9f)) * ext;
+    vec3 dir = target - ray.origin;
+    if (r.next() % 5 == 0) dir[int(r.next() % 3)] = 0.0f;
+    if (!(glm::length(dir) > 1e-3f)) continue;
+    ray.dir = glm::normalize(dir);
+    const Interval iv = intersect(ray, vbox);
+    const float t0 = iv.t0 > 0.0f ? iv.t0 : 0.0f;
+    if (!(iv.t1 > t0)) continue;
+    const int k_end = sample_index(iv.t1, t0, caster.p.inv_dt);
+    // A random sub-span, as a segment list hands the caster.
+    const int k0 = int(r.next() % std::uint64_t(k_end + 1));
+    const int k1 = k0 + int(r.next() % std::uint64_t(k_end - k0 + 1));
+    RayAccum plain, skipped;
+    caster.march(ray, t0, k0, k1, plain);
+    caster.march(ray, t0, k0, k1, skipped, false, &fv);
+    RC_ASSERT(std::memcmp(&plain.color, &skipped.color, sizeof(vec3)) == 0);
+    RC_ASSERT(std::memcmp(&plain.alpha, &skipped.alpha, sizeof(float)) == 0);
+    RC_ASSERT(plain.mip_any == skipped.mip_any);
+    if (plain.mip_any) RC_ASSERT(plain.mip_max == skipped.mip_max);
+    RC_ASSERT(plain.useful_samples == skipped.useful_samples);
+    RC_ASSERT(plain.done == skipped.done);
+    RC_ASSERT(skipped.samples <= plain.samples);
+  }
+}
+
+// The margin the walk relies on: points up to (almost) half a voxel outside a clear cell, in the
+// volume, still sample only the cell's dilated footprint, so they contribute nothing either.
+RC_GTEST_PROP(FineOccupancyProperty, HalfVoxelMarginOfClearCells, (std::uint64_t seed)) {
+  Rng r{seed};
+  RandomScene sc(r);
+  const BlockGrid g = make_block_grid(sc.desc.dims, sc.desc.spacing, 4);
+  const VolumeView lv = sc.lab.view();
+  const BlockMetadataTable cells = compute_all_block_metadata(g, sc.vol.view(), &lv);
+  CullParams cull;
+  cull.tf = &sc.tf;
+  cull.enabled = sc.use_labels ? &sc.enabled : nullptr;
+  FineOccupancy fine;
+  fine.classify(cells, cull);
+  const FineOccupancyView fv = fine.view();
+  DenseGrid<std::uint8_t> iv{sc.vol.as<std::uint8_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  DenseGrid<std::uint16_t> lg{sc.lab.as<std::uint16_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  const TransferFunctionView tv = sc.tf.view(1.0f);
+  for (std::size_t i = 0; i < g.block_count(); ++i) {
+    const ivec3 c = g.block_coord(i);
+    if (fv.occupied(c)) continue;
+    const Box3 b = g.block_box(c);
+    for (int k = 0; k < 30; ++k) {
+      const vec3 f(r.uni(-0.49f, 1.49f), r.uni(-0.49f, 1.49f), r.uni(-0.49f, 1.49f));
+      vec3 pos = b.lo + (b.hi - b.lo) * vec3(glm::clamp(f, 0.0f, 1.0f));
+      pos += (f - glm::clamp(f, 0.0f, 1.0f)) * sc.desc.spacing;  // up to 0.49 voxel outside
+      pos = glm::clamp(pos, vec3(0.0f), sc.desc.extent());
+      const bool visible = !sc.use_labels || sc.enabled.enabled(lg.label_at(pos));
+      RC_ASSERT(!visible || tv.lookup(iv.sample(pos)).a == 0.0f);
+    }
+  }
+}
+
+TEST(FineOccupancy, CellSizesAndBits) {
+  EXPECT_NO_THROW(validate_fine_cell(0));
+  EXPECT_NO_THROW(validate_fine_cell(4));
+  EXPECT_NO_THROW(validate_fine_cell(8));
+  EXPECT_THROW(validate_fine_cell(16), InputError);
+  EXPECT_THROW(validate_fine_cell(-4), InputError);
+  // One bright voxel in the middle of a dark 16³ volume: only the cells whose dilated footprint
+  // holds it are set.
+  VolumeDesc d;
+  d.dims = ivec3(16);
+  Volume v(d);
+  v.set(8, 8, 8, 255.0f);
+  const BlockMetadataTable cells = compute_all_block_metadata(make_block_grid(d.dims, d.spacing, 4), v.view(), nullptr);
+  const TransferFunction tf({{0.0f, vec4(0.0f)}, {100.0f, vec4(0.0f)}, {255.0f, vec4(1.0f)}});
+  CullParams cull;
+  cull.tf = &tf;
+  FineOccupancy fine;
+  fine.classify(cells, cull);
+  EXPECT_EQ(fine.cell_count(), 64u);
+  // Voxel 8 lies in cell 2 and in the dilated footprint of cell 1 (voxels 3..8): 2³ cells.
+  EXPECT_EQ(fine.set_cells(), 8u);
+  EXPECT_TRUE(fine.view().occupied(ivec3(1, 2, 1)));
+  EXPECT_FALSE(fine.view().occupied(ivec3(0, 0, 0)));
+  EXPECT_FALSE(fine.view().occupied(ivec3(3, 2, 2)));
+  EXPECT_EQ(fine.view().cell_of(vec3(-0.5f, 8.0f, 15.99f)), ivec3(0, 2, 3));
+}
+
+}  // namespace
+}  // namespace sl
