@@ -263,8 +263,9 @@ Header parse_header(const std::string& path) {
       double s = 0.0;
       if (!parse_number(tok[a], s)) throw InputError(path, "spacing '" + tok[a] + "' is not a number");
       // Refused rather than guessed: NaN (unknown) would silently become 1 and a negative spacing (a
-      // flipped axis, which the axis-aligned world cannot show) would silently lose its sign.
-      if (!(s > 0.0)) throw InputError(path, "spacing '" + tok[a] + "' must be a positive number");
+      // flipped axis, which the axis-aligned world cannot show) would silently lose its sign. Zero is
+      // refused by validate_desc below, naming the axis.
+      if (std::isnan(s) || s < 0.0) throw InputError(path, "spacing '" + tok[a] + "' must be a positive number");
       h.desc.spacing[a] = float(s);
     }
   }
