@@ -2,6 +2,7 @@
 // (cache/ingest.h), with a progress bar on a terminal and periodic plain lines otherwise.
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <stdexcept>
 
@@ -80,7 +81,29 @@ class Progress {
   bool drawn_ = false;
 };
 
+// True when `a` and `b` are the same path or one lies inside the other (after resolving symlinks and
+// `..`): writing OUT there, with --force removing what was there first, would destroy the input.
+bool paths_overlap(const std::string& a, const std::string& b) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::path pa = fs::weakly_canonical(fs::absolute(a, ec), ec);
+  const fs::path pb = fs::weakly_canonical(fs::absolute(b, ec), ec);
+  const auto prefix = [](const fs::path& outer, const fs::path& inner) {
+    auto o = outer.begin(), i = inner.begin();
+    for (; o != outer.end() && !o->empty(); ++o, ++i) {
+      if (i == inner.end() || *o != *i) return false;
+    }
+    return true;
+  };
+  return prefix(pa, pb) || prefix(pb, pa);
+}
+
 int run_ingest(const IngestCmdOptions& o) {
+  for (const std::string& in : {o.in, o.labels}) {
+    if (!in.empty() && paths_overlap(in, o.out)) {
+      throw InputError(o.out, "is the input " + in + " (or holds it, or lies inside it); choose another OUT");
+    }
+  }
   IngestOptions io;
   io.chunk = o.chunk;
   try {

@@ -3,6 +3,9 @@
 #include "core/fine_occupancy.h"
 
 #include <CLI/CLI.hpp>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
 #include <regex>
 
 #include "cache/synthetic/procedural_neurites.h"
@@ -53,8 +56,15 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                  "none, bbox, octree or sparseleap (out of core: sparseleap or none)" + std::string(view ? " (keys 1-4)" : ""))
         ->capture_default_str();
   }
-  c.add_option("--iso", o.iso, "Iso value (iso mode); default 128 for u8, mid-range otherwise");
-  c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in (0, 64]")->capture_default_str();
+  // NaN is the "not given" default, so a given NaN (or ±Inf) is refused while parsing.
+  c.add_option("--iso", o.iso, "Iso value (iso mode); default 128 for u8, mid-range otherwise")
+      ->check(CLI::Validator(
+          [](const std::string& v) {
+            const float f = std::strtof(v.c_str(), nullptr);
+            return std::isfinite(f) ? std::string() : std::string("must be a finite number");
+          },
+          "FINITE"));
+  c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in [0.001, 64]")->capture_default_str();
   c.add_option("--block", o.block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
   c.add_option("--fine-cell", o.fine_cell,
                "Fine occupancy cell edge in voxels inside SparseLeap segments (in core): 4 or 8, 0 = off; the "
@@ -104,7 +114,10 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   } else if (o.view != "image") {
     throw InputError("--view", "unknown view '" + o.view + "' (expected image or depth-complexity)");
   }
-  if (!(o.step > 0.0f) || o.step > 64.0f) throw InputError("--step", "step must be in (0, 64]");
+  // Bounded below so a ray takes at most ~1000 samples per voxel edge: --step 1e-9 would never finish.
+  if (!(o.step >= 1e-3f) || o.step > 64.0f) throw InputError("--step", "step must be in [0.001, 64]");
+  // A negative --cache-mb wraps to a huge unsigned budget (and then "out of memory").
+  if (o.cache_mb > std::size_t(PTRDIFF_MAX)) throw InputError("--cache-mb", "must be positive");
   if (o.threads < 0) throw InputError("--threads", "must be 0 (all cores) or a number of threads");
   if (!(o.lod_bias > 0.0f) || !std::isfinite(o.lod_bias)) throw InputError("--lod-bias", "must be positive");
   if (o.lod < -1) throw InputError("--lod", "must be a level (0: full resolution)");

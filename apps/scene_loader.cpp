@@ -79,6 +79,7 @@ LoadedScene load_scene(const SceneOptions& o) {
     s.label_count = 0;
   }
   if (!s.labels.empty() && s.label_count == 0) s.label_count = max_label(s.labels);
+  check_label_table(s.label_count, o.labels.empty() ? s.name : o.labels);
 
   if (!o.tf.empty()) {
     s.tf = load_transfer_function(o.tf);
@@ -110,6 +111,7 @@ SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
     s.name = o.volume;
     s.desc = src->desc();
     s.label_count = src->max_label();
+    check_label_table(s.label_count, o.labels.empty() ? o.volume : o.labels);
     s.labelled = src->has_labels();
     if (!o.tf.empty()) {
       s.tf = load_transfer_function(o.tf);

@@ -11,7 +11,10 @@
 namespace sl {
 
 Camera parse_camera(const std::string& text, const std::string& origin) {
-  const nlohmann::json j = parse_json(text, origin);
+  return camera_from_json(parse_json(text, origin), origin);
+}
+
+Camera camera_from_json(const nlohmann::json& j, const std::string& origin) {
   if (!j.is_object()) throw InputError(origin, "camera must be a JSON object");
   Camera c;
   c.eye = json_vec3(j, "eye", origin, true);

@@ -1,6 +1,7 @@
 // Camera description (the camera JSON of DESIGN.md §8) and the plain ray generator casters use.
 #pragma once
 
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "core/config.h"
@@ -24,6 +25,9 @@ struct Camera {
 // "height":h}`; throws InputError naming the file on any problem.
 Camera load_camera(const std::string& path);
 Camera parse_camera(const std::string& json_text, const std::string& origin);
+// The same from an already parsed value (camera-path keyframes: re-serialising a value recurses once
+// per nesting level, so a deeply nested file would overflow the stack).
+Camera camera_from_json(const nlohmann::json& j, const std::string& origin);
 std::string camera_to_json(const Camera& c);
 
 // A default view of a volume box [0, extent]: looking at its centre from the front-right-top, framing it.

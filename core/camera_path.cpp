@@ -48,7 +48,7 @@ CameraPath parse_camera_path(const std::string& text, const std::string& origin)
     throw InputError(origin, "expected an object with a non-empty \"keyframes\" array");
   }
   CameraPath p;
-  for (const auto& k : j["keyframes"]) p.keyframes.push_back(parse_camera(k.dump(), origin));
+  for (const auto& k : j["keyframes"]) p.keyframes.push_back(camera_from_json(k, origin));
   const float frames = j.contains("frames") ? json_number(j, "frames", origin) : float(p.keyframes.size());
   if (!(frames >= 1.0f && frames <= 1e6f) || frames != std::floor(frames)) {
     throw InputError(origin, "\"frames\" must be a whole number between 1 and 1000000");

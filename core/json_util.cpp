@@ -1,6 +1,7 @@
 #include "core/json_util.h"
 
 #include <cmath>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 
@@ -9,6 +10,9 @@
 namespace sl {
 
 std::string read_file_text(const std::string& path) {
+  // An ifstream opens a directory without complaint and then reads nothing ("malformed JSON").
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open file");
   std::stringstream ss;
@@ -20,7 +24,8 @@ std::string read_file_text(const std::string& path) {
 nlohmann::json parse_json(const std::string& text, const std::string& origin) {
   try {
     return nlohmann::json::parse(text);
-  } catch (const nlohmann::json::parse_error& e) {
+  } catch (const nlohmann::json::exception& e) {
+    // parse_error for syntax, out_of_range.406 for a number that overflows a double (1e999).
     std::string what = e.what();
     // nlohmann's message starts with "[json.exception.parse_error.101] "; keep what follows.
     const auto pos = what.find("] ");

@@ -16,8 +16,10 @@ void LabelSet::resize(std::uint32_t size) {
 }
 
 LabelSet LabelSet::all(std::uint32_t label_count) {
+  SL_CHECK(label_count <= kMaxLabelId);
   LabelSet s(label_count + 1u);
-  for (std::uint32_t i = 1; i <= label_count; ++i) s.enable(i);
+  // 64-bit counter: a 32-bit one wraps at id 0xFFFFFFFF and never ends.
+  for (std::uint64_t i = 1; i <= label_count; ++i) s.enable(std::uint32_t(i));
   return s;
 }
 
@@ -57,6 +59,13 @@ std::vector<std::uint32_t> LabelSet::ids() const {
     if (enabled(i)) out.push_back(i);
   }
   return out;
+}
+
+void check_label_table(std::uint32_t max_id, const std::string& origin) {
+  if (max_id <= kMaxLabelId) return;
+  const std::uint64_t mib = ((std::uint64_t(max_id) + 32u) / 32u * 4u + (1u << 20) - 1u) >> 20;
+  throw InputError(origin, "largest label id " + std::to_string(max_id) + " would need a " + std::to_string(mib) +
+                               " MiB label table; ids must be at most " + std::to_string(kMaxLabelId));
 }
 
 namespace {

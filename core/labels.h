@@ -22,12 +22,18 @@ struct LabelSetView {
   }
 };
 
+// Largest label id a label table holds: a dense bitset of 8 MiB, filled in ~0.1 s. Larger ids (a label
+// volume with one stray 0xFFFFFFFE voxel) would cost 512 MiB and seconds per table, so they are refused.
+inline constexpr std::uint32_t kMaxLabelId = (1u << 26) - 1u;
+// Throws InputError(origin, reason naming the table size) when max_id > kMaxLabelId.
+void check_label_table(std::uint32_t max_id, const std::string& origin);
+
 // Dense bitset over label ids. Label 0 is the background and is never enabled.
 class LabelSet {
  public:
   LabelSet() = default;
   explicit LabelSet(std::uint32_t size) { resize(size); }
-  // Labels 1..label_count enabled.
+  // Labels 1..label_count enabled; label_count <= kMaxLabelId.
   static LabelSet all(std::uint32_t label_count);
 
   void enable(std::uint32_t id);  // grows the set; enable(0) is ignored (background)

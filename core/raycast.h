@@ -266,7 +266,8 @@ struct RayCaster {
       }
     }
     const float f = vb != va ? (p.iso - va) / (vb - va) : 0.5f;
-    const float th = ta + glm::clamp(f, 0.0f, 1.0f) * (tb - ta);
+    // Clamped so a NaN f (a NaN voxel in the bracket) becomes 0: the hit stays inside the volume.
+    const float th = ta + (f > 0.0f ? (f < 1.0f ? f : 1.0f) : 0.0f) * (tb - ta);
     const vec3 hit = ray.at(th);
     if (!visible_label(hit, ctx)) return false;
     const vec3 base = vec3(p.tf.lookup(p.iso));

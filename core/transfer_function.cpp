@@ -83,11 +83,15 @@ TransferFunctionView TransferFunction::view(float step) const {
 }
 
 float TransferFunction::max_opacity(float lo, float hi) const {
+  if (std::isnan(lo) || std::isnan(hi)) {
+    lo = vmin();
+    hi = vmax();
+  }
   if (hi < lo) std::swap(lo, hi);
   const float scale = vmax() > vmin() ? float(kTableSize - 1) / (vmax() - vmin()) : 0.0f;
   auto to_index = [&](float v, bool up) {
     float x = (v - vmin()) * scale;
-    x = std::clamp(x, 0.0f, float(kTableSize - 1));
+    x = x > 0.0f ? std::min(x, float(kTableSize - 1)) : 0.0f;  // NaN (Inf * 0 of a constant function) -> 0
     return up ? int(std::ceil(x)) : int(std::floor(x));
   };
   const int i0 = to_index(lo, false);

@@ -27,10 +27,14 @@ struct TransferFunctionView {
     int i;
     float f;
   };
+  // Non-finite samples: -Inf and +Inf read the table's ends; NaN (and Inf * 0 of a constant function)
+  // reads entry 0, the low end, like -Inf. The comparisons are ordered so a NaN x fails `x > 0` and
+  // becomes 0 at no extra cost (int(NaN) would index far outside the table); finite values map exactly
+  // as before.
   SL_HOST_DEVICE SL_INLINE Coord coord(float v) const {
     float x = (v - vmin) * inv_step;
     const float last = float(size - 1);
-    x = x < 0.0f ? 0.0f : (x > last ? last : x);
+    x = x > 0.0f ? (x < last ? x : last) : 0.0f;
     int i = int(x);
     if (i > size - 2) i = size - 2;
     return {i, x - float(i)};
@@ -70,7 +74,8 @@ class TransferFunction {
   TransferFunctionView view(float step) const;
 
   // Largest table opacity over data values [lo, hi] (conservative for linear interpolation between
-  // table entries); O(1) by a sparse range-maximum table.
+  // table entries); O(1) by a sparse range-maximum table. A NaN bound (a block whose min/max started
+  // from a NaN voxel) means the range is unknown: the whole table, so culling stays conservative.
   float max_opacity(float lo, float hi) const;
 
   // Multiplies every opacity by s (clamped to 1); rebuilds the tables.

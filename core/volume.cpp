@@ -79,7 +79,8 @@ std::uint32_t max_label(const Volume& labels) {
 vec2 value_range(const Volume& vol) {
   const VolumeView v = vol.view();
   const std::uint64_t n = vol.desc().voxel_count();
-  // min and max are exact in any grouping (a NaN voxel is never selected).
+  // min and max are exact in any grouping. Only finite voxels count: a NaN is never selected, and a
+  // ±Inf voxel would give a non-finite default transfer function (it clamps to the ends instead).
   return parallel_reduce(
       std::uint64_t(0), n, std::uint64_t(1) << 16, vec2(INFINITY, -INFINITY),
       [&](std::uint64_t lo, std::uint64_t hi, vec2 m) {
@@ -87,6 +88,7 @@ vec2 value_range(const Volume& vol) {
           const int x = int(i % std::uint64_t(v.dims.x));
           const std::uint64_t yz = i / std::uint64_t(v.dims.x);
           const float f = v.value(x, int(yz % std::uint64_t(v.dims.y)), int(yz / std::uint64_t(v.dims.y)));
+          if (!std::isfinite(f)) continue;
           m.x = f < m.x ? f : m.x;
           m.y = f > m.y ? f : m.y;
         }

@@ -262,8 +262,11 @@ Header parse_header(const std::string& path) {
     for (int a = 0; a < 3; ++a) {
       double s = 0.0;
       if (!parse_number(tok[a], s)) throw InputError(path, "spacing '" + tok[a] + "' is not a number");
-      // NaN marks an axis without a known spacing; a negative one only flips the axis direction.
-      h.desc.spacing[a] = std::isnan(s) ? 1.0f : float(std::fabs(s));
+      // Refused rather than guessed: NaN (unknown) would silently become 1 and a negative spacing (a
+      // flipped axis, which the axis-aligned world cannot show) would silently lose its sign. Zero is
+      // refused by validate_desc below, naming the axis.
+      if (std::isnan(s) || s < 0.0) throw InputError(path, "spacing '" + tok[a] + "' must be a positive number");
+      h.desc.spacing[a] = float(s);
     }
   }
   for (const char* name : {"byteskip", "lineskip"}) {

@@ -5,6 +5,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 
 #include "cache/synthetic/generate.h"
 #include "cache/formats/nrrd.h"
@@ -310,6 +311,120 @@ TEST(Cli, FineCellsKeepTheImageAndSkipSamples) {
     EXPECT_LT(samples[k], samples[0]);
   }
   expect_one_line_error("render --fine-cell 6 --out " + (dir / "bad").string(), "--fine-cell");
+}
+
+}  // namespace
+}  // namespace sl
+
+namespace sl {
+namespace {
+
+// Issue 15: inputs that crashed, hung, destroyed data or gave the wrong error.
+TEST(CliRobust, NonFiniteVoxelsRenderInAndOutOfCore) {
+  const auto dir = test::scratch_dir();
+  Volume v(VolumeDesc{{24, 24, 24}, vec3(1.0f), VoxelType::F32});
+  for (int z = 0; z < 24; ++z)
+    for (int y = 0; y < 24; ++y)
+      for (int x = 0; x < 24; ++x) v.set(x, y, z, float(x + y + z));
+  float* f = v.as<float>();
+  f[0] = std::numeric_limits<float>::quiet_NaN();  // first voxel: block min/max start from NaN
+  f[5000] = std::numeric_limits<float>::quiet_NaN();
+  f[7000] = std::numeric_limits<float>::infinity();
+  f[9000] = -std::numeric_limits<float>::infinity();
+  const std::string vol = (dir / "nan.nrrd").string();
+  write_nrrd(vol, v);
+  const fs::path tf = dir / "tf.json";
+  test::write_text(tf, "{\"points\":[{\"value\":0,\"rgba\":[0,0,0,0]},{\"value\":70,\"rgba\":[1,1,1,1]}]}");
+  // The default transfer function spans the finite values; an explicit one segfaulted on NaN.
+  for (const std::string& tf_arg : {std::string(), " --tf " + tf.string()}) {
+    for (const std::string mode : {"dvr", "mip", "iso"}) {
+      for (const std::string ooc : {"", " --cache-mb 64"}) {
+        const std::string args = "render --backend cpu --size 32x32 --volume " + vol + tf_arg + " --mode " + mode +
+                                 ooc + " --out " + (dir / ("f_" + mode)).string();
+        const test::RunResult r = test::run_sparseleap(args);
+        EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
+      }
+    }
+  }
+}
+
+TEST(CliRobust, NanFillValueOfAMissingZarrChunkRenders) {
+  const auto dir = test::scratch_dir();
+  Volume v(VolumeDesc{{16, 16, 16}, vec3(1.0f), VoxelType::F32});
+  for (int z = 0; z < 16; ++z)
+    for (int y = 0; y < 16; ++y)
+      for (int x = 0; x < 16; ++x) v.set(x, y, z, float(x + y + z));
+  const std::string vol = (dir / "f.nrrd").string(), store = (dir / "f.zarr").string();
+  write_nrrd(vol, v);
+  ASSERT_EQ(test::run_sparseleap("ingest " + vol + " " + store + " --chunk 8").exit_code, 0);
+  const fs::path zarray = fs::path(store) / "0" / ".zarray";
+  std::string meta = test::read_text(zarray);
+  const auto pos = meta.find("\"fill_value\": 0.0");
+  ASSERT_NE(pos, std::string::npos) << meta;
+  meta.replace(pos, std::strlen("\"fill_value\": 0.0"), "\"fill_value\": \"NaN\"");
+  test::write_text(zarray, meta);
+  ASSERT_TRUE(fs::remove(fs::path(store) / "0" / "1" / "1" / "1"));
+  const fs::path tf = dir / "tf.json";
+  test::write_text(tf, "{\"points\":[{\"value\":0,\"rgba\":[0,0,0,0]},{\"value\":45,\"rgba\":[1,1,1,1]}]}");
+  for (const std::string mode : {"dvr", "mip", "iso"}) {
+    for (const std::string ooc : {"", " --cache-mb 64"}) {
+      const std::string args = "render --backend cpu --size 32x32 --volume " + store + " --tf " + tf.string() +
+                               " --mode " + mode + ooc + " --out " + (dir / ("z_" + mode)).string();
+      const test::RunResult r = test::run_sparseleap(args);
+      EXPECT_EQ(r.exit_code, 0) << args << "\n" << r.output;
+    }
+  }
+}
+
+TEST(CliRobust, RefusedInputsGiveOneLine) {
+  const auto dir = test::scratch_dir();
+  const std::string out = " --size 8x8 --out " + (dir / "x").string();
+  expect_one_line_error("render --step 1e-9" + out, "--step: step must be in [0.001, 64]");
+  expect_one_line_error("render --cache-mb -1" + out, "--cache-mb: must be positive");
+  expect_one_line_error("render --threads -1" + out, "--threads");
+  expect_one_line_error("render --iso nan" + out, "--iso: must be a finite number");
+  expect_one_line_error("render --tf " + dir.string() + out, dir.string() + ": is a directory");
+  const fs::path cam = dir / "cam.json";
+  test::write_text(cam, "{\"eye\":[1e999,0,0],\"center\":[0,0,0]}");
+  expect_one_line_error("render --camera " + cam.string() + out, cam.string() + ": malformed JSON");
+  const test::RunResult r = test::run_sparseleap("render --cache-mb -1" + out);
+  EXPECT_EQ(r.exit_code, 1);
+  EXPECT_FALSE(fs::exists(dir / "x.png"));
+}
+
+TEST(CliRobust, NanOrNegativeNrrdSpacingIsRefused) {
+  const auto dir = test::scratch_dir();
+  for (const char* sp : {"nan 1 1", "1 -2 1"}) {
+    const fs::path p = dir / "sp.nrrd";
+    test::write_text(p, std::string("NRRD0004\ntype: uchar\ndimension: 3\nsizes: 2 2 2\nspacings: ") + sp +
+                            "\nencoding: raw\n\n" + std::string(8, '\x10'));
+    expect_one_line_error("render --volume " + p.string() + " --size 8x8 --out " + (dir / "x").string(),
+                          "sp.nrrd: spacing");
+  }
+}
+
+TEST(CliRobust, HugeLabelIdIsRefusedNamingTheFile) {
+  const auto dir = test::scratch_dir();
+  Volume vol(VolumeDesc{{8, 8, 8}, vec3(1.0f), VoxelType::U8});
+  Volume lab(VolumeDesc{{8, 8, 8}, vec3(1.0f), VoxelType::U32});
+  lab.as<std::uint32_t>()[3] = 0xFFFFFFFFu;
+  const std::string vp = (dir / "v.nrrd").string(), lp = (dir / "l.nrrd").string();
+  write_nrrd(vp, vol);
+  write_nrrd(lp, lab);
+  expect_one_line_error("render --volume " + vp + " --labels " + lp + " --mode labels --size 8x8 --out " +
+                            (dir / "x").string(),
+                        "l.nrrd: largest label id 4294967295 would need a 512 MiB label table");
+}
+
+TEST(CliRobust, IngestRefusesToOverwriteItsInput) {
+  const auto dir = test::scratch_dir();
+  const std::string in = (dir / "in.nrrd").string();
+  write_nrrd(in, Volume(VolumeDesc{{8, 8, 8}, vec3(1.0f), VoxelType::U8}));
+  const auto before = fs::file_size(in);
+  expect_one_line_error("ingest " + in + " " + in + " --force", "is the input");
+  expect_one_line_error("ingest " + in + " " + dir.string() + " --force", "is the input");
+  EXPECT_TRUE(fs::is_regular_file(in));
+  EXPECT_EQ(fs::file_size(in), before);
 }
 
 }  // namespace

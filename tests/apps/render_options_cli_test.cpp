@@ -94,7 +94,7 @@ TEST(RenderOptions, OutOfCoreMethodsAreSparseLeapAndNone) {
 }
 
 TEST(RenderOptions, SharedValuesAreCheckedTheSameWay) {
-  expect_same_error("--step 0", "sparseleap: error: --step: step must be in (0, 64]");
+  expect_same_error("--step 0", "sparseleap: error: --step: step must be in [0.001, 64]");
   expect_same_error("--threads -1", "sparseleap: error: --threads: must be 0 (all cores) or a number of threads");
   expect_same_error("--lists vulkan", "sparseleap: error: --lists: unknown list builder 'vulkan' (expected cpu or gl)");
   expect_same_error("--lod -2", "sparseleap: error: --lod: must be a level (0: full resolution)");

@@ -49,5 +49,20 @@ TEST(CameraPath, BadJsonNamesTheFile) {
   }
 }
 
+TEST(CameraPath, DeepNestingAndOverflowAreOneInputError) {
+  // Keyframes are read from the parsed value, never re-serialised (which recursed once per level).
+  const std::string deep = "{\"keyframes\":[" + std::string(100000, '[') + std::string(100000, ']') + "]}";
+  const std::string eye_deep =
+      "{\"keyframes\":[{\"eye\":" + std::string(100000, '[') + std::string(100000, ']') + ",\"center\":[0,0,0]}]}";
+  for (const std::string& text : {deep, eye_deep, std::string("{\"keyframes\":[{\"eye\":[1e999,0,0],\"center\":[0,0,0]}]}")}) {
+    try {
+      parse_camera_path(text, "path.json");
+      ADD_FAILURE();
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "path.json");
+    }
+  }
+}
+
 }  // namespace
 }  // namespace sl

@@ -86,5 +86,24 @@ TEST(Labels, ColoursAreStableDistinctAndInRange) {
   for (std::uint32_t id = 1; id < 200; ++id) EXPECT_GT(glm::length(label_color(id) - label_color(id + 1)), 0.05f) << id;
 }
 
+TEST(Labels, HugeLabelIdsAreRefusedWithTheTableSize) {
+  EXPECT_NO_THROW(check_label_table(kMaxLabelId, "l.nrrd"));
+  for (std::uint32_t id : {kMaxLabelId + 1u, 0xFFFFFFFEu, 0xFFFFFFFFu}) {
+    try {
+      check_label_table(id, "l.nrrd");
+      ADD_FAILURE() << id;
+    } catch (const InputError& e) {
+      EXPECT_EQ(e.file(), "l.nrrd");
+      EXPECT_NE(std::string(e.what()).find(std::to_string(id)), std::string::npos) << e.what();
+      EXPECT_NE(std::string(e.what()).find("MiB"), std::string::npos) << e.what();
+    }
+  }
+  EXPECT_NE(std::string([] {
+              try { check_label_table(0xFFFFFFFFu, "x"); } catch (const InputError& e) { return std::string(e.what()); }
+              return std::string();
+            }()).find("512 MiB"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace sl

@@ -3,9 +3,11 @@
 #include <rapidcheck/gtest.h>
 
 #include <cmath>
+#include <limits>
 
 #include "core/error.h"
 #include "core/transfer_function.h"
+#include "tests/test_util.h"
 
 namespace sl {
 namespace {
@@ -73,6 +75,47 @@ TEST(TransferFunction, JsonErrorsNameTheFile) {
   const TransferFunction back = parse_transfer_function(transfer_function_to_json(tf), "x");
   EXPECT_EQ(back.points().size(), tf.points().size());
   EXPECT_NEAR(back.evaluate(150).w, tf.evaluate(150).w, 1e-6f);
+}
+
+TEST(TransferFunction, NonFiniteSamplesStayInsideTheTable) {
+  // NaN reads the low end (entry 0, like -Inf); ±Inf read the ends; a constant function too (Inf * 0).
+  const TransferFunction tf({{10.0f, vec4(0.0f)}, {20.0f, vec4(1.0f)}});
+  const TransferFunctionView v = tf.view(1.0f);
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(v.coord(nan).i, 0);
+  EXPECT_EQ(v.coord(nan).f, 0.0f);
+  EXPECT_EQ(v.lookup(nan), v.lookup(10.0f));
+  EXPECT_EQ(v.lookup(-inf), v.lookup(10.0f));
+  EXPECT_EQ(v.lookup(inf), v.lookup(20.0f));
+  const TransferFunction flat({{5.0f, vec4(0.5f)}});
+  const TransferFunctionView fv = flat.view(1.0f);
+  for (float x : {nan, inf, -inf}) {
+    EXPECT_GE(fv.coord(x).i, 0);
+    EXPECT_LE(fv.coord(x).i, fv.size - 2);
+    EXPECT_EQ(fv.lookup(x), vec4(0.5f));
+    EXPECT_EQ(flat.max_opacity(x, x), 0.5f);
+  }
+  // A NaN block bound means an unknown range: the whole table, so culling stays conservative.
+  EXPECT_EQ(tf.max_opacity(nan, 11.0f), 1.0f);
+  EXPECT_EQ(tf.max_opacity(nan, nan), 1.0f);
+  EXPECT_EQ(tf.max_opacity(-inf, inf), 1.0f);
+  EXPECT_EQ(tf.max_opacity(-inf, 10.0f), 0.0f);
+}
+
+TEST(TransferFunction, OverflowingNumberAndDirectoryNameTheFile) {
+  try {
+    parse_transfer_function("{\"points\":[{\"value\":1e999,\"rgba\":[0,0,0,1]}]}", "tf.json");
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("tf.json: malformed JSON"), std::string::npos) << e.what();
+  }
+  const std::string dir = test::scratch_dir().string();
+  try {
+    load_transfer_function(dir);
+    ADD_FAILURE();
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), dir + ": is a directory");
+  }
 }
 
 }  // namespace

@@ -187,8 +187,13 @@ TEST(Nrrd, AcceptsEveryTypeSpelling) {
 TEST(Nrrd, SpacingFromSpacingsAndSpaceDirections) {
   const fs::path p = scratch_dir() / "s.nrrd";
   const std::string data(8, '\x7f');
-  write_text(p, header("uchar", "2 2 2", "spacings: 0.5 nan -3\nencoding: raw\n\n") + data);
-  EXPECT_EQ(read_nrrd_header(p.string()).spacing, vec3(0.5f, 1.0f, 3.0f));  // NaN: unknown -> 1
+  write_text(p, header("uchar", "2 2 2", "spacings: 0.5 1 3\nencoding: raw\n\n") + data);
+  EXPECT_EQ(read_nrrd_header(p.string()).spacing, vec3(0.5f, 1.0f, 3.0f));
+  // NaN (unknown) and negative spacings are refused, not replaced by 1 or |s|.
+  for (const char* bad : {"0.5 nan 3", "0.5 1 -3", "-0.5 1 1"}) {
+    write_text(p, header("uchar", "2 2 2", std::string("spacings: ") + bad + "\nencoding: raw\n\n") + data);
+    expect_input_error([&] { read_nrrd_header(p.string()); }, p.string(), "must be a positive number");
+  }
 
   write_text(p, header("uchar", "2 2 2",
                        "space: left-posterior-superior\n"
