@@ -4,6 +4,7 @@
 
 
 #include <algorithm>
+#include <limits>
 #include <atomic>
 #include <string>
 
@@ -49,17 +50,21 @@ BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeVi
   m.computed = true;
   float vmin = intensity.value(lo.x, lo.y, lo.z);
   float vmax = vmin;
+  bool nan = false;  // float volumes: NaN compares false both ways, so min/max alone would skip it
   for (int z = lo.z; z < hi.z; ++z) {
     for (int y = lo.y; y < hi.y; ++y) {
       for (int x = lo.x; x < hi.x; ++x) {
         const float v = intensity.value(x, y, z);
         vmin = v < vmin ? v : vmin;
         vmax = v > vmax ? v : vmax;
+        nan = nan || v != v;
       }
     }
   }
-  m.min = vmin;
-  m.max = vmax;
+  // A NaN voxel makes every sample it touches NaN, which reads the transfer function's low end and
+  // passes iso comparisons as "not below": the conservative range for such a block is everything.
+  m.min = nan ? -std::numeric_limits<float>::infinity() : vmin;
+  m.max = nan ? std::numeric_limits<float>::infinity() : vmax;
   if (labels) {
     m.has_labels = true;
     std::uint32_t last = labels->label(lo.x, lo.y, lo.z);

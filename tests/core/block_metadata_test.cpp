@@ -4,7 +4,12 @@
 
 #include <gtest/gtest.h>
 
+#include <cstring>
+#include <limits>
+
+#include "core/culling.h"
 #include "core/error.h"
+#include "core/in_core_renderer.h"
 
 namespace sl {
 namespace {
@@ -147,6 +152,47 @@ TEST(BlockMetadata, BrickWithApronGivesTheWholeVolumesAnswer) {
             }
       }
   EXPECT_EQ(checked, int(g.block_count()));
+}
+
+// A NaN voxel anywhere in a block (not only its first) makes the block's range everything: a NaN sample
+// reads the transfer function's low end, so a block whose finite values are transparent may still show
+// it, and culling must not call it EMPTY. The skipping methods then agree with no skipping.
+TEST(BlockMetadata, NanVoxelsMakeTheRangeEverything) {
+  VolumeDesc d;
+  d.dims = ivec3(24, 20, 18);
+  d.type = VoxelType::F32;
+  Volume v(d);
+  for (int z = 0; z < d.dims.z; ++z)
+    for (int y = 0; y < d.dims.y; ++y)
+      for (int x = 0; x < d.dims.x; ++x) v.set(x, y, z, 200.0f);
+  v.set(13, 9, 7, std::numeric_limits<float>::quiet_NaN());  // not the first voxel of any block
+  const BlockGrid g = make_block_grid(d.dims, d.spacing, 8);
+  const BlockMetadata m = compute_block_metadata(g, v.view(), nullptr, 1, 1, 0);
+  EXPECT_EQ(m.min, -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(m.max, std::numeric_limits<float>::infinity());
+  const BlockMetadata clean = compute_block_metadata(g, v.view(), nullptr, 0, 0, 2);
+  EXPECT_EQ(clean.min, 200.0f);
+  // Opaque only at the low end (where NaN reads), transparent at 200.
+  const TransferFunction tf({{0.0f, {1, 0, 0, 0.8f}}, {10.0f, {0, 0, 0, 0}}, {255.0f, {0, 0, 0, 0}}});
+  CullParams p;
+  p.tf = &tf;
+  EXPECT_EQ(classify_block(m, p), OccupancyClass::NonEmpty);
+  EXPECT_EQ(classify_block(clean, p), OccupancyClass::Empty);
+  Scene scene{&v, nullptr, &tf, nullptr, default_camera(d.extent())};
+  RenderSettings s;
+  s.width = s.height = 40;
+  std::vector<Frame> frames;
+  for (SkipMethod method : {SkipMethod::None, SkipMethod::BBox, SkipMethod::Octree, SkipMethod::SparseLeap}) {
+    s.method = method;
+    frames.push_back(InCoreRenderer().render(scene, s));
+  }
+  float alpha = 0.0f;
+  for (const vec4& c : frames[0].image.rgba) alpha += c.w;
+  EXPECT_GT(alpha, 0.0f) << "the NaN voxel shows";
+  for (std::size_t k = 1; k < frames.size(); ++k) {
+    EXPECT_EQ(std::memcmp(frames[k].image.rgba.data(), frames[0].image.rgba.data(),
+                          frames[0].image.rgba.size() * sizeof(vec4)), 0) << to_string(s.method);
+  }
 }
 
 }  // namespace
