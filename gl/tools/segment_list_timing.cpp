@@ -37,9 +37,8 @@ int main(int argc, char** argv) {
     const RayGenerator gen = make_ray_generator(cam, size, size);
     const auto order = build_visibility_order(tree, geometry, view_point(gen));
     SegmentListBuffer cpu, gl;
-    cpu.capacity = gl.capacity = 32;
-    std::printf("%dx%d, %zu boxes, %zu entries, capacity %u, path %s\n", size, size, geometry.boxes.size(),
-                order.size(), cpu.capacity, to_string(builder.path()));
+    std::printf("%dx%d, %zu boxes, %zu entries, GL list capacity %u, path %s\n", size, size, geometry.boxes.size(),
+                order.size(), options.list_capacity, to_string(builder.path()));
     for (int r = 0; r < repeats; ++r) {
       const Timer t;
       const SegmentListStats cs = build_segment_lists(geometry, order, gen, cpu);
