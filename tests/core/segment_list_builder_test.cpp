@@ -191,6 +191,31 @@ TEST(SegmentListBuilder, StorageIsCompactAndReusedAcrossFrames) {
   }
 }
 
+TEST(SegmentListBuilder, FixedCapacityListsAreCompacted) {  // the GL builder's read back
+  const Fixture f = rich_fixture(17, ivec3(64), vec3(1.0f));
+  const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 37, 29);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  constexpr std::uint32_t kCap = 6;
+  SegmentListBuffer bounded;
+  const SegmentListStats b = build_segment_lists_reference(f.geometry, order, gen, bounded, 0.0f, kCap);
+  ASSERT_GT(b.overflows, 0u);
+  // The fixed layout: pixel i's events at [i * kCap ...), garbage past its count.
+  const std::size_t pixels = bounded.counts.size();
+  std::vector<RayEvent> fixed(pixels * kCap, detail::make_event(-1.0f, EventType::Exit, C::Unknown));
+  for (std::size_t i = 0; i < pixels; ++i) std::copy_n(bounded.list(i), bounded.count(i), fixed.data() + i * kCap);
+  std::vector<std::uint32_t> words = bounded.counts;
+  ASSERT_EQ(bounded.count(0), 0u);
+  words[0] = kListOverflow;  // an empty list with the flag (the GL fallback's missed pixel) stays so
+  SegmentListBuffer compact;
+  const SegmentListStats c = compact_fixed_lists(fixed.data(), words.data(), kCap, gen.width, gen.height, compact);
+  EXPECT_EQ(compact.counts[0], kListOverflow);
+  compact.counts[0] = bounded.counts[0];
+  expect_same_lists(compact, bounded);
+  EXPECT_EQ(c.events, b.events);
+  EXPECT_EQ(c.overflows, b.overflows);
+  EXPECT_EQ(compact.event_count, b.events);
+}
+
 TEST(SegmentListBuilder, TileBuilderNeedsADepthFirstOrder) {
   const Fixture f = rich_fixture(7, ivec3(64), vec3(1.0f));
   const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 20, 20);
