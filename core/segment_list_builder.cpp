@@ -1,6 +1,7 @@
 #include "core/segment_list_builder.h"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
@@ -8,7 +9,6 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
-#include <mutex>
 #include <vector>
 
 #include <glm/gtc/type_precision.hpp>
@@ -192,20 +192,21 @@ void count_list(SegmentListStats& s, const RayEvent* ev, std::uint32_t word) {
 
 // Hands out ranges of out.events to many threads at once: a block of lists reserves its range with
 // one atomic add and writes itself there. A range past the end of the array (a frame with more events
-// than any before it) is written to a spill buffer instead, copied in once finish() has grown the
+// than any before it) goes to the thread's spill buffer instead, copied in once finish() has grown the
 // array: only such frames allocate. Offsets are 32-bit: an image holds up to 2^32 events (32 GiB).
 class EventArena {
  public:
   explicit EventArena(SegmentListBuffer& out) : out_(out) {}
 
-  // Room for n events, valid until finish(); `at` is their offset in the array.
+  // Room for n events, to be written before this thread's next reserve(); `at` is their offset.
   RayEvent* reserve(std::size_t n, std::uint32_t& at) {
     const std::size_t first = used_.fetch_add(n, std::memory_order_relaxed);
     at = std::uint32_t(first);
     if (first + n <= out_.events.size()) return out_.events.data() + first;
-    const std::lock_guard<std::mutex> lock(mutex_);
-    spilled_.push_back(Spill{first, std::vector<RayEvent>(n)});
-    return spilled_.back().events.data();  // a vector's storage stays put when the vector moves
+    Spill& s = spilled_.local();
+    s.ranges.push_back(Range{first, s.events.size(), n});
+    s.events.resize(s.events.size() + n);
+    return s.events.data() + (s.events.size() - n);
   }
 
   // After every block is written: grows the array (with an eighth to spare, so that the frames of a
@@ -217,21 +218,25 @@ class EventArena {
       out_.events.reserve(total + total / 8);  // exactly: resize alone may double the allocation
       out_.events.resize(total + total / 8);
     }
-    for (const Spill& s : spilled_) {
-      std::copy(s.events.begin(), s.events.end(), out_.events.begin() + std::ptrdiff_t(s.at));
-    }
+    tbb::parallel_for(spilled_.range(), [&](const auto& threads) {
+      for (const Spill& s : threads) {
+        for (const Range& r : s.ranges) std::copy_n(s.events.data() + r.from, r.n, out_.events.data() + r.at);
+      }
+    });
     out_.event_count = total;
   }
 
  private:
+  struct Range {
+    std::size_t at, from, n;  // offset in the array, in the spill buffer; events
+  };
   struct Spill {
-    std::size_t at;
     std::vector<RayEvent> events;
+    std::vector<Range> ranges;
   };
   SegmentListBuffer& out_;
   std::atomic<std::size_t> used_{0};
-  std::mutex mutex_;
-  std::vector<Spill> spilled_;
+  tbb::enumerable_thread_specific<Spill> spilled_;  // made per thread only when it spills
 };
 
 // One block's lists (a row's, a tile's) back to back, on their way into the buffer.
