@@ -608,14 +608,21 @@ SegmentListStats compact_fixed_lists(const RayEvent* events, const std::uint32_t
   const SegmentListStats st = tbb::parallel_reduce(
       tbb::blocked_range<int>(0, height), SegmentListStats{},
       [&](const tbb::blocked_range<int>& rows, SegmentListStats s) {
-        thread_local ListBlock block;
-        for (int y = rows.begin(); y != rows.end(); ++y) {
-          block.clear();
-          for (int x = 0; x < width; ++x) {
-            const std::size_t p = out.pixel(x, y);
-            block.add(p, events + p * capacity, counts[p]);
+        for (int y = rows.begin(); y != rows.end(); ++y) {  // a row's lists back to back
+          const std::size_t p0 = out.pixel(0, y), p1 = p0 + std::size_t(width);
+          std::size_t total = 0;
+          for (std::size_t p = p0; p < p1; ++p) total += counts[p] & kListCountMask;
+          std::uint32_t at = 0;
+          RayEvent* const dst = arena.reserve(total, at);
+          std::uint32_t run = 0;
+          for (std::size_t p = p0; p < p1; ++p) {
+            const std::uint32_t c = counts[p] & kListCountMask;
+            std::copy_n(events + p * capacity, c, dst + run);
+            out.offsets[p] = at + run;
+            out.counts[p] = counts[p];
+            count_list(s, dst + run, counts[p]);
+            run += c;
           }
-          block.commit(arena, out, s);
         }
         return s;
       },

@@ -83,9 +83,8 @@ struct SegmentListStats {
 SegmentListStats segment_list_stats(const SegmentListBuffer& lists);
 
 // Tile builder into `out` (reset to gen's size; its storage is reused). `order` must be a visibility
-// order of `geometry` (build_visibility_order's): depth-first, each box's FRONT and BACK entries
-// nesting (checked). eps > 0 enables the
-// conservative short-gap rule (typically one sample step).
+// order (build_visibility_order's): depth-first, each box's FRONT and BACK entries nesting (checked).
+// eps > 0 enables the conservative short-gap rule (typically one sample step).
 SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
                                      const RayGenerator& gen, SegmentListBuffer& out, float eps = 0.0f,
                                      ListBuildPath path = ListBuildPath::Fast);

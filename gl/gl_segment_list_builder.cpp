@@ -301,7 +301,7 @@ void GlSegmentListBuilder::read_back(SegmentListBuffer& out, GlBuildStats* stats
   const std::size_t pixels = std::size_t(m.width) * std::size_t(m.height);
   SL_CHECK(pixels > 0);  // after a build
   glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
-  // Mapped rather than copied: only the events the lists hold are read, straight into their place.
+  // Mapped rather than copied: only the events the lists hold are read, straight into the compact array.
   const auto* counts = static_cast<const std::uint32_t*>(
       glMapNamedBufferRange(m.counts.id(), 0, GLsizeiptr(pixels * 4), GL_MAP_READ_BIT));
   const auto* events = static_cast<const RayEvent*>(
