@@ -95,13 +95,7 @@ void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback&
   SegmentListBuffer lists;
   SkipInputs skip = r.skip;
   if (skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) {
-    const SegmentListView& v = r.skip.lists;
-    const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
-    lists.width = v.width;
-    lists.height = v.height;
-    lists.capacity = v.capacity;
-    lists.events.assign(v.events, v.events + pixels * v.capacity);
-    lists.counts.assign(v.counts, v.counts + pixels);
+    lists.assign(r.skip.lists);
     skip.lists = lists.view();
   }
   cast_virtual_frame(r.params, r.gen, r.vbox, skip, r.frame, view(), frame);

@@ -46,7 +46,6 @@ SegmentListView FramePipeline::lists(const OccupancyTree& tree, SkipMethod metho
       const std::vector<VisibilityEntry> order = build_visibility_order(tree, *geometry_, view_point(gen));
       st.time_ms.order = t.ms();
       t = Timer();
-      lists_.reset(gen.width, gen.height, kListCapacity);
       list_stats_ = list_builder_ ? list_builder_(*geometry_, order, gen, lists_, eps)
                                   : build_segment_lists(*geometry_, order, gen, lists_, eps);
     } else {
@@ -68,6 +67,7 @@ SegmentListView FramePipeline::lists(const OccupancyTree& tree, SkipMethod metho
   }
   st.events = list_stats_.events;
   st.list_overflows = list_stats_.overflows;
+  st.list_bytes = lists_.storage_bytes();
   return lists_.view();
 }
 

@@ -22,12 +22,8 @@
 
 namespace sl {
 
-// Events per pixel list. Longer lists are made conservative (their tail is sampled) and counted in
-// Stats::list_overflows; neurite scenes stay well below (about 30 events at most).
-inline constexpr std::uint32_t kListCapacity = 32;
-
-// Builds SparseLeap segment lists with build_segment_lists's signature into `out` (keeping its size
-// and capacity), e.g. GlSegmentListBuilder for `--lists gl`; lists equal to the CPU builder's give
+// Builds SparseLeap segment lists with build_segment_lists's signature into `out` (sized to gen, its
+// storage reused), e.g. GlSegmentListBuilder for `--lists gl`; lists equal to the CPU builder's give
 // the same image (DESIGN.md §7, tests/gl/gl_lists_renderer_test.cpp).
 using ListBuilder = std::function<SegmentListStats(const OccupancyGeometry&, std::span<const VisibilityEntry>,
                                                    const RayGenerator&, SegmentListBuffer& out, float eps)>;
@@ -43,8 +39,8 @@ class FramePipeline {
   // The per-pixel lists of `method` (SparseLeap: visibility order and segment lists over geometry(),
   // which must be current; BBox: first entry / last exit of the non-empty leaves). Reused while the
   // view, the tree, the method and the short-gap threshold `eps` are unchanged (a step, lighting or
-  // opacity-scale change keeps them); otherwise rebuilt, timed into `st`. Fills st.events and
-  // st.list_overflows either way.
+  // opacity-scale change keeps them); otherwise rebuilt, timed into `st`. Fills st.events,
+  // st.list_overflows and st.list_bytes either way.
   SegmentListView lists(const OccupancyTree& tree, SkipMethod method, const RayGenerator& gen, float eps,
                         Stats& st);
   // Ends the frame: the settings' overlays — the depth-complexity view; the occupancy boxes, when the
@@ -62,7 +58,7 @@ class FramePipeline {
   std::optional<OccupancyGeometry> geometry_;
   std::vector<OccupancyBox> nonempty_leaves_;  // bbox baseline, of tree revision leaves_revision_
   std::uint64_t leaves_revision_ = 0;
-  SegmentListBuffer lists_;
+  SegmentListBuffer lists_;  // kept between frames: its storage only grows (no allocation per frame)
   // Key of the lists in `lists_`: view, tree revision, method and gap threshold they were built for.
   bool lists_valid_ = false;
   RayGenerator lists_gen_;

@@ -3,10 +3,15 @@
 //
 // A list is a front-to-back sequence of events; segment i is [events[i].t, events[i+1].t) with class
 // events[i].cls. A complete list ends with an event of class INVALID (the volume exit). A list whose
-// last event is not INVALID overflowed: its last segment extends to the volume exit.
+// last event is not INVALID overflowed: its last segment extends to the volume exit. The CPU builders
+// never overflow (their lists are stored compactly, SegmentListBuffer); fixed-capacity lists (the GL
+// builder's, a SegmentList held by value) can.
 #pragma once
 
+#include <bit>
+#include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include "core/config.h"
@@ -23,20 +28,28 @@ struct RayEvent {
   std::uint8_t cls;    // OccupancyClass of the segment that starts here
   std::uint16_t pad;
 };
-static_assert(sizeof(RayEvent) == 8, "RayEvent layout (mirrored by the GL shader)");
+static_assert(sizeof(RayEvent) == 8 && offsetof(RayEvent, type) == 4 && offsetof(RayEvent, cls) == 5,
+              "RayEvent layout (mirrored by the GL shader, packed by make_event)");
+#if !defined(__CUDA_ARCH__)
+static_assert(std::endian::native == std::endian::little, "make_event packs RayEvent little-endian");
+#endif
 
-inline constexpr std::uint32_t kMaxEvents = 64;            // per-pixel capacity (compile-time maximum)
+inline constexpr std::uint32_t kMaxEvents = 64;            // capacity of SegmentList and of GL lists at most
 inline constexpr std::uint32_t kListOverflow = 0x80000000u;  // flag bit in a list's count word
 inline constexpr std::uint32_t kListCountMask = 0x7FFFFFFFu;
 
 namespace detail {
 
+// The event as one 64-bit word (t's bits, then type, class and a zero pad; x86-64 and CUDA devices are
+// little-endian): member by member, GCC assembles the struct with a dozen masks, which cost the CPU
+// builder a tenth of its instructions.
 SL_HOST_DEVICE inline RayEvent make_event(float t, EventType type, OccupancyClass cls) {
+  std::uint32_t t_bits;
+  std::memcpy(&t_bits, &t, sizeof t_bits);
+  const std::uint64_t word =
+      std::uint64_t(t_bits) | std::uint64_t(std::uint8_t(type)) << 32 | std::uint64_t(std::uint8_t(cls)) << 40;
   RayEvent e;
-  e.t = t;
-  e.type = std::uint8_t(type);
-  e.cls = std::uint8_t(cls);
-  e.pad = 0;
+  std::memcpy(&e, &word, sizeof e);
   return e;
 }
 
@@ -61,8 +74,8 @@ inline constexpr float kNoEventYet = -3.402823466e+38f;  // initial value of a l
 
 // Adds one event to the list tail (events[0..count), count word with the overflow flag), applying the
 // merge rules of Alg. 5 exactly as segment_rules.py's add_event, then the conservative short-gap rule
-// when eps > 0. `capacity` <= kMaxEvents. `t_seen` is builder state per list (start: kNoEventYet):
-// the largest depth seen so far.
+// when eps > 0. `capacity`: the room at `ev` (a list that needs more overflows). `t_seen` is builder
+// state per list (start: kNoEventYet): the largest depth seen so far.
 SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, float& t_seen, std::uint32_t capacity,
                                      float t, EventType type, OccupancyClass cls, float eps) {
   if (count_word & kListOverflow) return;  // overflowed: the tail is already conservative
@@ -77,14 +90,14 @@ SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, fl
   } else {
     t_seen = t;
   }
-  const RayEvent e = detail::make_event(t, type, cls);
+  const std::uint8_t e_type = std::uint8_t(type), e_cls = std::uint8_t(cls);
   if (n > 0u && ev[n - 1].t == t) {  // isEqual(eventPrev.depth, depth): the same-depth rules
     RayEvent& prev = ev[n - 1];
-    if (prev.type == e.type) {
+    if (prev.type == e_type) {
       // Alg. 5, rule 1 (2x ENTRY or 2x EXIT): keep the last only...
-      prev.cls = e.cls;
+      prev.cls = e_cls;
       // ...and drop it if it now repeats the class before it (minimality, DESIGN.md §7).
-      if (n >= 2u && ev[n - 2].cls == e.cls) {
+      if (n >= 2u && ev[n - 2].cls == e_cls) {
         --n;
       } else {
         const RayEvent tail = prev;
@@ -94,16 +107,19 @@ SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, fl
       count_word = n;
       return;
     }
-    if (e.type == std::uint8_t(EventType::Exit)) {  // Alg. 5, rule 2: ENTRY then EXIT, delete both
+    if (type == EventType::Exit) {  // Alg. 5, rule 2: ENTRY then EXIT, delete both
       count_word = n - 1u;
       return;
     }
-    if (n >= 2u && ev[n - 2].cls == e.cls) {  // Alg. 5, rule 3: EXIT then ENTRY back to the same class
+    if (n >= 2u && ev[n - 2].cls == e_cls) {  // Alg. 5, rule 3: EXIT then ENTRY back to the same class
       count_word = n - 1u;
       return;
     }
   }
-  if (n > 0u && ev[n - 1].cls == e.cls) return;  // no-op event: the class does not change
+  if (n > 0u && ev[n - 1].cls == e_cls) return;  // no-op event: the class does not change
+  // The event is made only now that it is kept (most events fall to a rule above: the CPU builder's
+  // hot path).
+  const RayEvent e = detail::make_event(t, type, cls);
   const std::uint32_t m = detail::absorb_short_gap(ev, n, e, eps);
   if (m != 0xFFFFFFFFu) {
     count_word = m;
@@ -173,42 +189,66 @@ SL_HOST_DEVICE inline RaySegment list_segment(const RayEvent* ev, std::uint32_t 
   return s;
 }
 
-// Plain view of all pixels' lists: pixel i's events are events[i * capacity ...], its count word
-// counts[i] (low 31 bits: events; top bit: overflow). Copyable to a device.
+// Plain view of all pixels' lists, stored compactly (memory proportional to the events, not to a
+// per-pixel capacity): pixel i's count word is counts[i] (low 31 bits: events; top bit: overflow,
+// which only a fixed-capacity builder — the GL one — sets), its events are events[offsets[i] ...].
+// `event_count` events in all. Pointer-free but for the three arrays, copied to a device as they are
+// (cuda/cast_kernels.cuh uploads the arrays and repoints them).
 struct SegmentListView {
   const RayEvent* events = nullptr;
+  const std::uint32_t* offsets = nullptr;
   const std::uint32_t* counts = nullptr;
+  std::uint64_t event_count = 0;
   int width = 0;
   int height = 0;
-  std::uint32_t capacity = kMaxEvents;
 
   SL_HOST_DEVICE std::uint32_t count(std::size_t pixel) const { return counts[pixel] & kListCountMask; }
   SL_HOST_DEVICE bool overflowed(std::size_t pixel) const { return (counts[pixel] & kListOverflow) != 0u; }
-  SL_HOST_DEVICE const RayEvent* list(std::size_t pixel) const { return events + pixel * capacity; }
+  SL_HOST_DEVICE const RayEvent* list(std::size_t pixel) const { return events + offsets[pixel]; }
 };
+static_assert(sizeof(SegmentListView) == 40, "SegmentListView is copied to the device as it is");
 
-// Host storage: W*H*capacity events plus one count word per pixel.
+// Host storage of compact lists: one event array shared by all pixels (in any order of the pixels:
+// the builders fill it tile by tile) and per pixel an offset and a count word. The arrays only grow:
+// a renderer that keeps its buffer allocates nothing per frame once it has seen its largest frame.
 struct SegmentListBuffer {
   int width = 0;
   int height = 0;
-  std::uint32_t capacity = kMaxEvents;
-  std::vector<RayEvent> events;
+  std::vector<RayEvent> events;  // [0, event_count) hold the lists; the rest is room to grow into
+  std::size_t event_count = 0;
+  std::vector<std::uint32_t> offsets;
   std::vector<std::uint32_t> counts;
 
-  void reset(int w, int h, std::uint32_t cap = kMaxEvents) {
-    SL_CHECK(w >= 0 && h >= 0 && cap >= 2u && cap <= kMaxEvents);
+  // Sizes the per-pixel arrays for w x h pixels, all lists empty. Keeps the storage.
+  void reset(int w, int h) {
+    SL_CHECK(w >= 0 && h >= 0);
     width = w;
     height = h;
-    capacity = cap;
-    events.resize(std::size_t(w) * std::size_t(h) * cap);
+    event_count = 0;
+    offsets.assign(std::size_t(w) * std::size_t(h), 0u);
     counts.assign(std::size_t(w) * std::size_t(h), 0u);
   }
+  // A copy of `v`'s lists (as a device receives them).
+  void assign(const SegmentListView& v) {
+    const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
+    width = v.width;
+    height = v.height;
+    event_count = std::size_t(v.event_count);
+    events.assign(v.events, v.events + v.event_count);
+    offsets.assign(v.offsets, v.offsets + pixels);
+    counts.assign(v.counts, v.counts + pixels);
+  }
   std::size_t pixel(int x, int y) const { return std::size_t(y) * std::size_t(width) + std::size_t(x); }
-  RayEvent* list(std::size_t i) { return events.data() + i * capacity; }
-  const RayEvent* list(std::size_t i) const { return events.data() + i * capacity; }
+  const RayEvent* list(std::size_t i) const { return events.data() + offsets[i]; }
   std::uint32_t count(std::size_t i) const { return counts[i] & kListCountMask; }
   bool overflowed(std::size_t i) const { return (counts[i] & kListOverflow) != 0u; }
-  SegmentListView view() const { return SegmentListView{events.data(), counts.data(), width, height, capacity}; }
+  // Bytes held for the lists: the event array as allocated, and the offsets and count words.
+  std::size_t storage_bytes() const {
+    return events.capacity() * sizeof(RayEvent) + (offsets.size() + counts.size()) * sizeof(std::uint32_t);
+  }
+  SegmentListView view() const {
+    return SegmentListView{events.data(), offsets.data(), counts.data(), event_count, width, height};
+  }
 };
 
 }  // namespace sl

@@ -1,13 +1,23 @@
 #include "core/segment_list_builder.h"
 
+#include "core/parallel.h"
+
+#include <tbb/enumerable_thread_specific.h>
+
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cmath>
 #include <vector>
 
 #include <glm/gtc/type_precision.hpp>
 
-#include "core/parallel.h"
+#if defined(__SSE2__) && !defined(SL_NO_SSE)
+#include <emmintrin.h>
+#define SL_SSE_SLAB 1
+#else
+#define SL_SSE_SLAB 0
+#endif
 
 namespace sl {
 
@@ -59,144 +69,507 @@ ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen) {
   return r;
 }
 
+namespace {
+
+// The 4-wide slab test (detail::slab4), inlined into the tile loop. Scalar: intersect() written out
+// per lane. With slab_reciprocal's +inf an axis the ray is parallel to yields u, v in {-inf, +inf,
+// NaN}: -inf/+inf leave [t0, t1] alone, a +inf near (origin below the slab) or a -inf far (above it)
+// empties it, and NaN (origin on the slab's plane) fails every comparison and changes nothing — the
+// origin is within the inclusive slab there, as intersect() decides. Fast: the same IEEE operations
+// four lanes at a time; minps/maxps return their second operand unless their comparison holds,
+// which is exactly the scalar `a > b ? a : b` (NaN lanes included).
+template <ListBuildPath kPath>
+SL_INLINE unsigned slab_lanes(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b,
+                              float* t0, float* t1) {
+#if SL_SSE_SLAB
+  if constexpr (kPath == ListBuildPath::Fast) {
+    __m128 near = _mm_set1_ps(-3.402823466e+38f);
+    __m128 far = _mm_set1_ps(3.402823466e+38f);
+    for (int a = 0; a < 3; ++a) {
+      const __m128 oa = _mm_loadu_ps(o[a] + i);
+      const __m128 ia = _mm_loadu_ps(inv[a] + i);
+      const __m128 u = _mm_mul_ps(_mm_sub_ps(_mm_set1_ps(b.lo[a]), oa), ia);
+      const __m128 v = _mm_mul_ps(_mm_sub_ps(_mm_set1_ps(b.hi[a]), oa), ia);
+      const __m128 lo = _mm_min_ps(v, u);  // u > v ? v : u
+      const __m128 hi = _mm_max_ps(u, v);  // u > v ? u : v
+      near = _mm_max_ps(lo, near);         // lo > near ? lo : near
+      far = _mm_min_ps(hi, far);           // hi < far ? hi : far
+    }
+    _mm_storeu_ps(t0, near);
+    _mm_storeu_ps(t1, far);
+    return unsigned(_mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(near, far), _mm_cmpgt_ps(far, _mm_setzero_ps()))));
+  }
+#endif
+  unsigned hit = 0;
+  for (int k = 0; k < 4; ++k) {
+    float near = -3.402823466e+38f;
+    float far = 3.402823466e+38f;
+    for (int a = 0; a < 3; ++a) {
+      float u = (b.lo[a] - o[a][i + k]) * inv[a][i + k];
+      float v = (b.hi[a] - o[a][i + k]) * inv[a][i + k];
+      if (u > v) std::swap(u, v);
+      near = u > near ? u : near;
+      far = v < far ? v : far;
+    }
+    t0[k] = near;
+    t1[k] = far;
+    if (near < far && far > 0.0f) hit |= 1u << k;
+  }
+  return hit;
+}
+
+// Bit k set when x[k] > 0 (k < 4).
+template <ListBuildPath kPath>
+SL_INLINE unsigned positive_lanes(const float* x) {
+#if SL_SSE_SLAB
+  if constexpr (kPath == ListBuildPath::Fast) {
+    return unsigned(_mm_movemask_ps(_mm_cmpgt_ps(_mm_loadu_ps(x), _mm_setzero_ps())));
+  }
+#endif
+  unsigned m = 0;
+  for (int k = 0; k < 4; ++k) m |= x[k] > 0.0f ? 1u << k : 0u;
+  return m;
+}
+
+// dst[k] = t[k] where bit k of `lanes` is set, else 0 (k < 4).
+template <ListBuildPath kPath>
+SL_INLINE void store_lanes(float* dst, const float* t, unsigned lanes) {
+#if SL_SSE_SLAB
+  if constexpr (kPath == ListBuildPath::Fast) {
+    const __m128i bits = _mm_setr_epi32(1, 2, 4, 8);
+    const __m128i mask = _mm_cmpeq_epi32(_mm_and_si128(_mm_set1_epi32(int(lanes)), bits), bits);
+    _mm_storeu_ps(dst, _mm_and_ps(_mm_loadu_ps(t), _mm_castsi128_ps(mask)));
+    return;
+  }
+#endif
+  for (int k = 0; k < 4; ++k) dst[k] = (lanes >> k) & 1u ? t[k] : 0.0f;
+}
+
+}  // namespace
+
+namespace detail {
+
+template <ListBuildPath kPath>
+unsigned slab4(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b, float* t0,
+               float* t1) {
+  return slab_lanes<kPath>(o, inv, i, b, t0, t1);
+}
+template unsigned slab4<ListBuildPath::Fast>(const float* const[3], const float* const[3], std::size_t, const Box3&,
+                                             float*, float*);
+template unsigned slab4<ListBuildPath::Scalar>(const float* const[3], const float* const[3], std::size_t,
+                                               const Box3&, float*, float*);
+
+}  // namespace detail
+
+namespace {
+
+void add_stats(SegmentListStats& a, const SegmentListStats& b) {
+  a.lists += b.lists;
+  a.events += b.events;
+  a.segments += b.segments;
+  a.max_events = std::max(a.max_events, b.max_events);
+  a.overflows += b.overflows;
+  a.box_tile_pairs += b.box_tile_pairs;
+  a.slab_tests += b.slab_tests;
+}
+
+SegmentListStats sum_stats(SegmentListStats a, const SegmentListStats& b) {
+  add_stats(a, b);
+  return a;
+}
+
+// One list into the counts (an empty list counts for nothing, whatever its flag).
+void count_list(SegmentListStats& s, const RayEvent* ev, std::uint32_t word) {
+  const std::uint32_t c = word & kListCountMask;
+  if (c == 0u) return;
+  ++s.lists;
+  s.events += c;
+  s.segments += segment_count(ev, c);
+  s.max_events = std::max(s.max_events, c);
+  s.overflows += (word & kListOverflow) ? 1u : 0u;
+}
+
+// Hands out ranges of out.events to many threads at once: a block of lists reserves its range with
+// one atomic add and writes itself there. A range past the end of the array (a frame with more events
+// than any before it) goes to the thread's spill buffer instead, copied in once finish() has grown the
+// array: only such frames allocate. Offsets are 32-bit: an image holds up to 2^32 events (32 GiB).
+class EventArena {
+ public:
+  explicit EventArena(SegmentListBuffer& out) : out_(out) {}
+
+  // Room for n events, to be written before this thread's next reserve(); `at` is their offset.
+  RayEvent* reserve(std::size_t n, std::uint32_t& at) {
+    const std::size_t first = used_.fetch_add(n, std::memory_order_relaxed);
+    at = std::uint32_t(first);
+    if (first + n <= out_.events.size()) return out_.events.data() + first;
+    Spill& s = spilled_.local();
+    s.ranges.push_back(Range{first, s.events.size(), n});
+    s.events.resize(s.events.size() + n);
+    return s.events.data() + (s.events.size() - n);
+  }
+
+  // After every block is written: grows the array (with an eighth to spare, so that the frames of a
+  // camera path rarely grow it again) and copies the spilled ranges in.
+  void finish() {
+    const std::size_t total = used_.load();
+    SL_CHECK(total <= std::size_t(0xFFFFFFFFu));
+    if (total > out_.events.size()) {
+      out_.events.reserve(total + total / 8);  // exactly: resize alone may double the allocation
+      out_.events.resize(total + total / 8);
+    }
+    // Serially: only a frame larger than any before spills, and then into few, large ranges.
+    for (const Spill& s : spilled_) {
+      for (const Range& r : s.ranges) std::copy_n(s.events.data() + r.from, r.n, out_.events.data() + r.at);
+    }
+    out_.event_count = total;
+  }
+
+ private:
+  struct Range {
+    std::size_t at, from, n;  // offset in the array, in the spill buffer; events
+  };
+  struct Spill {
+    std::vector<RayEvent> events;
+    std::vector<Range> ranges;
+  };
+  SegmentListBuffer& out_;
+  std::atomic<std::size_t> used_{0};
+  tbb::enumerable_thread_specific<Spill> spilled_;  // made per thread only when it spills
+};
+
+// One block's lists (a row's, a tile's) back to back, on their way into the buffer.
+struct ListBlock {
+  std::vector<RayEvent> events;
+  std::vector<std::uint32_t> pixel, start, word;
+
+  void clear() {
+    events.clear();
+    pixel.clear();
+    start.clear();
+    word.clear();
+  }
+  void add(std::size_t p, const RayEvent* ev, std::uint32_t count_word) {
+    if (count_word == 0u) return;  // the buffer's lists start empty
+    pixel.push_back(std::uint32_t(p));
+    start.push_back(std::uint32_t(events.size()));
+    word.push_back(count_word);
+    events.insert(events.end(), ev, ev + (count_word & kListCountMask));
+  }
+  // Into the buffer through `arena`, counting the lists into `st`.
+  void commit(EventArena& arena, SegmentListBuffer& out, SegmentListStats& st) const {
+    if (pixel.empty()) return;
+    std::uint32_t base = 0;
+    std::copy(events.begin(), events.end(), arena.reserve(events.size(), base));
+    for (std::size_t i = 0; i < pixel.size(); ++i) {
+      out.offsets[pixel[i]] = base + start[i];
+      out.counts[pixel[i]] = word[i];
+      count_list(st, events.data() + start[i], word[i]);
+    }
+  }
+};
+
+}  // namespace
+
 SegmentListStats segment_list_stats(const SegmentListBuffer& lists) {
   const std::size_t n = lists.counts.size();
   return parallel_reduce(
       std::size_t(0), n, std::size_t(1), SegmentListStats{},
       [&](std::size_t lo, std::size_t hi, SegmentListStats s) {
-        for (std::size_t i = lo; i != hi; ++i) {
-          const std::uint32_t c = lists.count(i);
-          if (c == 0u) continue;
-          ++s.lists;
-          s.events += c;
-          s.segments += segment_count(lists.list(i), c);
-          s.max_events = std::max(s.max_events, c);
-          s.overflows += lists.overflowed(i) ? 1u : 0u;
-        }
+        for (std::size_t i = lo; i != hi; ++i) count_list(s, lists.list(i), lists.counts[i]);
         return s;
       },
-      [](SegmentListStats a, const SegmentListStats& b) {
-        a.lists += b.lists;
-        a.events += b.events;
-        a.segments += b.segments;
-        a.max_events = std::max(a.max_events, b.max_events);
-        a.overflows += b.overflows;
-        a.box_tile_pairs += b.box_tile_pairs;
-        return a;
-      });
+      sum_stats);
 }
 
 namespace {
 
-// Runs fn(tile_rect, entries) for every screen tile, in parallel over rows of tiles: each row first
-// bins, in the given order, the items whose rectangle overlaps it. `rect_of(i)` is item i's rectangle.
+constexpr int T = kTileSize;
+constexpr int kTilePixels = T * T;
+
+// Runs fn(tile_rect, entries, stats) for every screen tile with entries, in parallel over rows of
+// tiles: each row first bins, in the given order, the items whose rectangle overlaps it. `rect_of(i)`
+// is item i's rectangle. Returns the stats fn added up, with box_tile_pairs.
 template <class RectOf, class Fn>
-std::uint64_t for_each_tile(const RayGenerator& gen, std::size_t items, RectOf&& rect_of, Fn&& fn) {
-  constexpr int T = kTileSize;
+SegmentListStats for_each_tile(const RayGenerator& gen, std::size_t items, RectOf&& rect_of, Fn&& fn) {
   const int tiles_x = (gen.width + T - 1) / T;
   const int tiles_y = (gen.height + T - 1) / T;
-  std::atomic<std::uint64_t> pairs{0};
-  parallel_for(0, tiles_y, [&](int row0, int row1) {
-    std::vector<std::vector<std::uint32_t>> bins(tiles_x);  // once per chunk of rows
-    for (int ty = row0; ty != row1; ++ty) {
-      for (auto& b : bins) b.clear();
-      const int y0 = ty * T, y1 = std::min(y0 + T, gen.height) - 1;
-      for (std::size_t i = 0; i < items; ++i) {
-        const ScreenRect& r = rect_of(i);
-        if (r.empty() || r.y1 < y0 || r.y0 > y1) continue;
-        for (int tx = r.x0 / T; tx <= r.x1 / T; ++tx) bins[tx].push_back(std::uint32_t(i));
-      }
-      std::uint64_t p = 0;
-      for (int tx = 0; tx < tiles_x; ++tx) {
-        const ScreenRect tile{tx * T, y0, std::min(tx * T + T, gen.width) - 1, y1};
-        p += bins[tx].size();
-        fn(tile, bins[tx]);
-      }
-      pairs += p;
-    }
-  });
-  return pairs.load();
+  return parallel_reduce(
+      0, tiles_y, 1, SegmentListStats{},
+      [&](int row0, int row1, SegmentListStats st) {
+        thread_local std::vector<std::vector<std::uint32_t>> bins;  // kept: no allocation per frame
+        if (bins.size() < std::size_t(tiles_x)) bins.resize(std::size_t(tiles_x));
+        for (int ty = row0; ty != row1; ++ty) {
+          for (int tx = 0; tx < tiles_x; ++tx) bins[tx].clear();
+          const int y0 = ty * T, y1 = std::min(y0 + T, gen.height) - 1;
+          for (std::size_t i = 0; i < items; ++i) {
+            const ScreenRect& r = rect_of(i);
+            if (r.empty() || r.y1 < y0 || r.y0 > y1) continue;
+            for (int tx = r.x0 / T; tx <= r.x1 / T; ++tx) bins[tx].push_back(std::uint32_t(i));
+          }
+          for (int tx = 0; tx < tiles_x; ++tx) {
+            if (bins[tx].empty()) continue;  // the buffer's lists start empty
+            const ScreenRect tile{tx * T, y0, std::min(tx * T + T, gen.width) - 1, y1};
+            st.box_tile_pairs += bins[tx].size();
+            fn(tile, bins[tx], st);
+          }
+        }
+        return st;
+      },
+      sum_stats);
 }
 
 std::vector<ScreenRect> box_rects(std::span<const OccupancyBox> boxes, const RayGenerator& gen) {
   std::vector<ScreenRect> rects(boxes.size());
-  parallel_for(std::size_t(0), boxes.size(),
-               [&](std::size_t i) { rects[i] = conservative_screen_rect(boxes[i].box, gen); });
+  parallel_for(std::size_t(0), boxes.size(), [&](std::size_t i) { rects[i] = conservative_screen_rect(boxes[i].box, gen); });
   return rects;
+}
+
+// Nesting level of each entry (how many boxes are open around it), checking what the tile builder
+// relies on: every BACK entry closes the box opened last. `depth`: the deepest level + 1.
+std::vector<std::uint32_t> nesting_levels(std::span<const VisibilityEntry> order, std::uint32_t& depth) {
+  std::vector<std::uint32_t> level(order.size()), open;
+  depth = 0;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    const std::uint32_t box = order[i].box;
+    if (order[i].face == Face::Front) {
+      level[i] = std::uint32_t(open.size());
+      open.push_back(box);
+      depth = std::max(depth, std::uint32_t(open.size()));
+    } else {
+      SL_CHECK(!open.empty() && open.back() == box);
+      open.pop_back();
+      level[i] = std::uint32_t(open.size());
+    }
+  }
+  SL_CHECK(open.empty());
+  return level;
+}
+
+// Lanes [g, g + 4) of a tile row that lie in [x0, x1], as a 4-bit mask.
+unsigned lane_mask(int g, int x0, int x1) {
+  unsigned m = 0xFu;
+  if (x0 > g) m &= 0xFu << (x0 - g);
+  if (x1 < g + 3) m &= 0xFu >> (g + 3 - x1);
+  return m & 0xFu;
+}
+
+constexpr std::uint8_t kLaneCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
+
+// A tile's working set, one per thread and kept between frames. Pixel k = ly * T + lx of the tile.
+struct TileScratch {
+  alignas(16) float origin[3][kTilePixels];
+  alignas(16) float inv_dir[3][kTilePixels];
+  std::vector<float> exits;  // [level][pixel]: exit t of the open box at that level, 0 where it missed
+  std::uint32_t capacity = 32;
+  std::vector<RayEvent> events;  // [pixel][capacity]
+  std::uint32_t count[kTilePixels];
+  float t_seen[kTilePixels];
+};
+
+struct TileJob {
+  const OccupancyGeometry& geometry;
+  std::span<const VisibilityEntry> order;
+  const RayGenerator& gen;
+  const std::vector<ScreenRect>& rects;
+  const std::vector<std::uint32_t>& level;
+  std::uint32_t depth;
+  float eps;
+  EventArena& arena;
+  SegmentListBuffer& out;
+};
+
+// The tile's lists in its scratch (Alg. 4-5 per entry and covered pixel). False when a list
+// overflowed the scratch's capacity.
+template <ListBuildPath kPath>
+bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
+                    TileScratch& s, std::uint64_t& tests) {
+  const std::uint32_t cap = s.capacity;
+  RayEvent* const ev = s.events.data();
+  std::fill_n(s.count, kTilePixels, 0u);
+  std::fill_n(s.t_seen, kTilePixels, kNoEventYet);
+  const float* const o[3] = {s.origin[0], s.origin[1], s.origin[2]};
+  const float* const inv[3] = {s.inv_dir[0], s.inv_dir[1], s.inv_dir[2]};
+  alignas(16) float t0[4] = {}, t1[4] = {};
+  for (std::size_t i = 0; i < entries.size(); ++i) {
+    const std::uint32_t e = entries[i];
+    const VisibilityEntry& v = job.order[e];
+    const OccupancyBox& b = job.geometry.boxes[v.box];
+    const Box3 box = b.box;  // a copy the stores below cannot alias
+    const ScreenRect& r = job.rects[v.box];
+    const int x0 = std::max(r.x0, tile.x0) - tile.x0, x1 = std::min(r.x1, tile.x1) - tile.x0;
+    const int y0 = std::max(r.y0, tile.y0) - tile.y0, y1 = std::min(r.y1, tile.y1) - tile.y0;
+    const std::uint32_t level = job.level[e];
+    float* const exit = s.exits.data() + std::size_t(level) * kTilePixels;
+    if (v.face == Face::Front) {
+      // A leaf's BACK entry follows its FRONT entry (Alg. 3): both events at once, per pixel in the
+      // same order, and no exit to keep.
+      const bool leaf = i + 1 < entries.size() && entries[i + 1] == e + 1u && job.order[e + 1].box == v.box;
+      for (int y = y0; y <= y1; ++y) {
+        for (int g = x0 & ~3; g <= x1; g += 4) {
+          const int k0 = y * T + g;
+          const unsigned lanes = lane_mask(g, x0, x1);
+          tests += kLaneCount[lanes];
+          const unsigned hit = slab_lanes<kPath>(o, inv, std::size_t(k0), box, t0, t1) & lanes;
+          if (!leaf) store_lanes<kPath>(exit + k0, t1, hit);  // the BACK entry's EXIT t (0: missed)
+          for (unsigned m = hit; m != 0u; m &= m - 1u) {
+            const int l = std::countr_zero(m);
+            const int k = k0 + l;
+            add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, t0[l] > 0.0f ? t0[l] : 0.0f,
+                      EventType::Entry, b.cls, job.eps);
+            if (leaf) {
+              add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, t1[l], EventType::Exit,
+                        b.parent_cls, job.eps);
+            }
+          }
+        }
+      }
+      i += leaf ? 1u : 0u;
+    } else {
+      // Alg. 4's EXIT at the back face: the t1 of the slab test the FRONT entry of this box ran.
+      for (int y = y0; y <= y1; ++y) {
+        for (int g = x0 & ~3; g <= x1; g += 4) {
+          const int k0 = y * T + g;
+          for (unsigned m = lane_mask(g, x0, x1) & positive_lanes<kPath>(exit + k0); m != 0u; m &= m - 1u) {
+            const int k = k0 + std::countr_zero(m);
+            add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit,
+                      b.parent_cls, job.eps);
+          }
+        }
+      }
+    }
+  }
+  for (int k = 0; k < kTilePixels; ++k) {
+    if (s.count[k] & kListOverflow) return false;
+  }
+  return true;
+}
+
+template <ListBuildPath kPath>
+void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
+                SegmentListStats& st) {
+  thread_local TileScratch s;
+  // Rays of the tile as structure of arrays; lanes past the image edge are zero and never used.
+  for (int ly = 0; ly < T; ++ly) {
+    for (int lx = 0; lx < T; ++lx) {
+      const int k = ly * T + lx;
+      const int x = tile.x0 + lx, y = tile.y0 + ly;
+      if (x > tile.x1 || y > tile.y1) {
+        for (int a = 0; a < 3; ++a) s.origin[a][k] = s.inv_dir[a][k] = 0.0f;
+        continue;
+      }
+      const Ray ray = job.gen.ray(x, y);
+      for (int a = 0; a < 3; ++a) {
+        s.origin[a][k] = ray.origin[a];
+        s.inv_dir[a][k] = detail::slab_reciprocal(ray.dir[a]);
+      }
+    }
+  }
+  if (s.exits.size() < std::size_t(job.depth) * kTilePixels) s.exits.resize(std::size_t(job.depth) * kTilePixels);
+  std::uint64_t tests = 0;
+  for (;;) {
+    if (s.events.size() < std::size_t(s.capacity) * kTilePixels) s.events.resize(std::size_t(s.capacity) * kTilePixels);
+    tests = 0;
+    if (rasterize_tile<kPath>(job, tile, entries, s, tests)) break;
+    SL_CHECK(s.capacity < (1u << 30));
+    s.capacity *= 2;  // a list outgrew the scratch: the tile again, with room for it (and kept so)
+  }
+  st.slab_tests += tests;
+  // Straight into the buffer: the tile's lists back to back, pixel by pixel.
+  std::size_t total = 0;
+  for (int k = 0; k < kTilePixels; ++k) total += s.count[k];
+  if (total == 0) return;
+  std::uint32_t at = 0;
+  RayEvent* const dst = job.arena.reserve(total, at);
+  std::uint32_t run = 0;
+  for (int y = tile.y0; y <= tile.y1; ++y) {
+    for (int x = tile.x0; x <= tile.x1; ++x) {
+      const int k = (y - tile.y0) * T + (x - tile.x0);
+      const std::uint32_t c = s.count[k];
+      if (c == 0u) continue;
+      const std::size_t p = job.out.pixel(x, y);
+      std::copy_n(s.events.data() + std::size_t(k) * s.capacity, c, dst + run);
+      job.out.offsets[p] = at + run;
+      job.out.counts[p] = c;
+      count_list(st, dst + run, c);
+      run += c;
+    }
+  }
 }
 
 }  // namespace
 
 SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
-                                     const RayGenerator& gen, SegmentListBuffer& out, float eps) {
-  out.reset(gen.width, gen.height, out.capacity);
+                                     const RayGenerator& gen, SegmentListBuffer& out, float eps, ListBuildPath path) {
+  out.reset(gen.width, gen.height);
   const std::vector<ScreenRect> rects = box_rects(geometry.boxes, gen);
-  const std::uint32_t cap = out.capacity;
-  const std::uint64_t pairs = for_each_tile(
+  std::uint32_t depth = 0;
+  const std::vector<std::uint32_t> level = nesting_levels(order, depth);
+  EventArena arena(out);
+  const TileJob job{geometry, order, gen, rects, level, depth, eps, arena, out};
+  const SegmentListStats st = for_each_tile(
       gen, order.size(), [&](std::size_t i) -> const ScreenRect& { return rects[order[i].box]; },
-      [&](const ScreenRect& tile, const std::vector<std::uint32_t>& entries) {
-        if (entries.empty()) return;
-        Ray rays[kTileSize * kTileSize];
-        float t_seen[kTileSize * kTileSize];
-        const int tw = tile.x1 - tile.x0 + 1;
-        for (int y = tile.y0; y <= tile.y1; ++y) {
-          for (int x = tile.x0; x <= tile.x1; ++x) {
-            rays[(y - tile.y0) * tw + (x - tile.x0)] = gen.ray(x, y);
-            t_seen[(y - tile.y0) * tw + (x - tile.x0)] = kNoEventYet;
-          }
-        }
-        for (std::uint32_t e : entries) {
-          const VisibilityEntry& v = order[e];
-          const OccupancyBox& b = geometry.boxes[v.box];
-          const ScreenRect& r = rects[v.box];
-          const int x0 = std::max(r.x0, tile.x0), x1 = std::min(r.x1, tile.x1);
-          const int y0 = std::max(r.y0, tile.y0), y1 = std::min(r.y1, tile.y1);
-          for (int y = y0; y <= y1; ++y) {
-            for (int x = x0; x <= x1; ++x) {
-              const std::size_t p = out.pixel(x, y);
-              const int k = (y - tile.y0) * tw + (x - tile.x0);
-              add_box_event(out.list(p), out.counts[p], t_seen[k], cap, rays[k], b.box, v.face == Face::Front, b.cls,
-                            b.parent_cls, eps);
-            }
-          }
+      [&](const ScreenRect& tile, const std::vector<std::uint32_t>& entries, SegmentListStats& s) {
+        if (path == ListBuildPath::Fast) {
+          build_tile<ListBuildPath::Fast>(job, tile, entries, s);
+        } else {
+          build_tile<ListBuildPath::Scalar>(job, tile, entries, s);
         }
       });
-  SegmentListStats s = segment_list_stats(out);
-  s.box_tile_pairs = pairs;
-  return s;
+  arena.finish();
+  return st;
 }
 
 SegmentListStats build_segment_lists_reference(const OccupancyGeometry& geometry,
                                                std::span<const VisibilityEntry> order, const RayGenerator& gen,
-                                               SegmentListBuffer& out, float eps) {
-  out.reset(gen.width, gen.height, out.capacity);
-  parallel_for(0, gen.height, [&](int y) {
-    for (int x = 0; x < gen.width; ++x) {
-      const Ray ray = gen.ray(x, y);
-      const std::size_t p = out.pixel(x, y);
-      float t_seen = kNoEventYet;
-      for (const VisibilityEntry& v : order) {
-        const OccupancyBox& b = geometry.boxes[v.box];
-        add_box_event(out.list(p), out.counts[p], t_seen, out.capacity, ray, b.box, v.face == Face::Front, b.cls,
-                      b.parent_cls, eps);
-      }
-    }
-  });
-  return segment_list_stats(out);
+                                               SegmentListBuffer& out, float eps, std::uint32_t capacity) {
+  out.reset(gen.width, gen.height);
+  EventArena arena(out);
+  const SegmentListStats st = parallel_reduce(
+      0, gen.height, 1, SegmentListStats{},
+      [&](int row0, int row1, SegmentListStats s) {
+        ListBlock block;
+        std::vector<RayEvent> list(capacity > 0u ? capacity : kMaxEvents);
+        for (int y = row0; y != row1; ++y) {
+          block.clear();
+          for (int x = 0; x < gen.width; ++x) {
+            const Ray ray = gen.ray(x, y);
+            std::uint32_t count = 0;
+            for (;;) {
+              count = 0;
+              float t_seen = kNoEventYet;
+              for (const VisibilityEntry& v : order) {
+                const OccupancyBox& b = geometry.boxes[v.box];
+                add_box_event(list.data(), count, t_seen, std::uint32_t(list.size()), ray, b.box,
+                              v.face == Face::Front, b.cls, b.parent_cls, eps);
+              }
+              if (capacity > 0u || !(count & kListOverflow)) break;
+              list.resize(2 * list.size());  // unbounded: the pixel again with room for its list
+            }
+            block.add(out.pixel(x, y), list.data(), count);
+          }
+          block.commit(arena, out, s);
+        }
+        return s;
+      },
+      sum_stats);
+  arena.finish();
+  return st;
 }
 
 SegmentListStats build_bbox_lists(std::span<const OccupancyBox> all_boxes, const RayGenerator& gen,
                                   SegmentListBuffer& out) {
-  out.reset(gen.width, gen.height, 2u);
+  out.reset(gen.width, gen.height);
   std::vector<OccupancyBox> boxes;
   for (const OccupancyBox& b : all_boxes) {
     if (b.cls != OccupancyClass::Empty) boxes.push_back(b);
   }
   const std::vector<ScreenRect> rects = box_rects(boxes, gen);
-  const std::uint64_t pairs = for_each_tile(
+  EventArena arena(out);
+  const SegmentListStats st = for_each_tile(
       gen, boxes.size(), [&](std::size_t i) -> const ScreenRect& { return rects[i]; },
-      [&](const ScreenRect& tile, const std::vector<std::uint32_t>& items) {
-        if (items.empty()) return;
+      [&](const ScreenRect& tile, const std::vector<std::uint32_t>& items, SegmentListStats& s) {
+        thread_local ListBlock block;
+        block.clear();
         for (int y = tile.y0; y <= tile.y1; ++y) {
           for (int x = tile.x0; x <= tile.x1; ++x) {
             const Ray ray = gen.ray(x, y);
@@ -212,18 +585,46 @@ SegmentListStats build_bbox_lists(std::span<const OccupancyBox> all_boxes, const
               unknown = unknown || boxes[i].cls == OccupancyClass::Unknown;
             }
             if (!(last > first)) continue;
-            const std::size_t p = out.pixel(x, y);
-            RayEvent* ev = out.list(p);
-            ev[0] = detail::make_event(first, EventType::Entry,
-                                       unknown ? OccupancyClass::Unknown : OccupancyClass::NonEmpty);
-            ev[1] = detail::make_event(last, EventType::Exit, OccupancyClass::Invalid);
-            out.counts[p] = 2u;
+            const OccupancyClass cls = unknown ? OccupancyClass::Unknown : OccupancyClass::NonEmpty;
+            const RayEvent ev[2] = {detail::make_event(first, EventType::Entry, cls),
+                                    detail::make_event(last, EventType::Exit, OccupancyClass::Invalid)};
+            block.add(out.pixel(x, y), ev, 2u);
           }
         }
+        block.commit(arena, out, s);
       });
-  SegmentListStats s = segment_list_stats(out);
-  s.box_tile_pairs = pairs;
-  return s;
+  arena.finish();
+  return st;
+}
+
+SegmentListStats compact_fixed_lists(const RayEvent* events, const std::uint32_t* counts, std::uint32_t capacity,
+                                     int width, int height, SegmentListBuffer& out) {
+  out.reset(width, height);
+  EventArena arena(out);
+  const SegmentListStats st = parallel_reduce(
+      0, height, 1, SegmentListStats{},
+      [&](int row0, int row1, SegmentListStats s) {
+        for (int y = row0; y != row1; ++y) {  // a row's lists back to back
+          const std::size_t p0 = out.pixel(0, y), p1 = p0 + std::size_t(width);
+          std::size_t total = 0;
+          for (std::size_t p = p0; p < p1; ++p) total += counts[p] & kListCountMask;
+          std::uint32_t at = 0;
+          RayEvent* const dst = arena.reserve(total, at);
+          std::uint32_t run = 0;
+          for (std::size_t p = p0; p < p1; ++p) {
+            const std::uint32_t c = counts[p] & kListCountMask;
+            std::copy_n(events + p * capacity, c, dst + run);
+            out.offsets[p] = at + run;
+            out.counts[p] = counts[p];
+            count_list(s, dst + run, counts[p]);
+            run += c;
+          }
+        }
+        return s;
+      },
+      sum_stats);
+  arena.finish();
+  return st;
 }
 
 }  // namespace sl

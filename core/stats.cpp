@@ -35,6 +35,7 @@ std::string stats_to_json(const Stats& s) {
   j["events"] = s.events;
   j["occupancy_misses"] = s.occupancy_misses;
   j["list_overflows"] = s.list_overflows;
+  j["list_bytes"] = s.list_bytes;
   j["metadata_blocks"] = s.metadata_blocks;
   j["metadata_computed"] = s.metadata_computed;
   j["tree"] = {{"nodes", s.tree_nodes}};

@@ -39,7 +39,8 @@ struct Stats {
   std::uint64_t boxes = 0;              // occupancy-geometry boxes
   std::uint64_t events = 0;             // ray events in all segment lists
   std::uint64_t occupancy_misses = 0;   // UNKNOWN segments sampled
-  std::uint64_t list_overflows = 0;     // pixels whose list hit its capacity
+  std::uint64_t list_overflows = 0;     // pixels whose list hit a fixed capacity (GL lists only)
+  std::uint64_t list_bytes = 0;         // storage of the frame's segment lists (events, offsets, counts)
   std::uint64_t metadata_blocks = 0;    // blocks whose metadata exists
   std::uint64_t metadata_computed = 0;  // blocks whose metadata was computed this frame (in or out of core)
   std::uint64_t tree_nodes = 0;

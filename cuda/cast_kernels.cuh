@@ -160,11 +160,14 @@ class FrameInputs {
       p.labels.bits = bits_.get();
     }
     if (skip.method == SkipMethod::SparseLeap || skip.method == SkipMethod::BBox) {
+      // The compact lists as they are: the events of all pixels, and per pixel an offset and a count.
       const SegmentListView& v = skip.lists;
       const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);
-      events_.upload(v.events, pixels * v.capacity, stream);
+      events_.upload(v.events, std::size_t(v.event_count), stream);
+      offsets_.upload(v.offsets, pixels, stream);
       counts_.upload(v.counts, pixels, stream);
       skip.lists.events = events_.get();
+      skip.lists.offsets = offsets_.get();
       skip.lists.counts = counts_.get();
     } else if (skip.method == SkipMethod::Octree) {
       nodes_.upload(skip.octree.nodes, node_count(skip.octree), stream);
@@ -194,7 +197,7 @@ class FrameInputs {
   }
 
   DeviceBuffer<vec4> tf_;
-  DeviceBuffer<std::uint32_t> bits_, counts_;
+  DeviceBuffer<std::uint32_t> bits_, offsets_, counts_;
   DeviceBuffer<RayEvent> events_;
   DeviceBuffer<SkipOctreeNode> nodes_;
   DeviceBuffer<std::uint64_t> fine_;

@@ -295,27 +295,33 @@ void GlSegmentListBuilder::read_back(SegmentListBuffer& out, GlBuildStats* stats
   const Impl& m = *impl_;
   m.context.make_current();
   const Timer t;
-  out.reset(m.width, m.height, m.capacity);
-  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT);
-  m.events.read(0, out.events.size() * sizeof(RayEvent), out.events.data());
-  m.counts.read(0, out.counts.size() * 4, out.counts.data());
+  const std::size_t pixels = std::size_t(m.width) * std::size_t(m.height);
+  SL_CHECK(pixels > 0);  // after a build
+  glMemoryBarrier(GL_BUFFER_UPDATE_BARRIER_BIT | GL_CLIENT_MAPPED_BUFFER_BARRIER_BIT);
+  // Mapped rather than copied: only the events the lists hold are read, straight into the compact array.
+  const auto* counts = static_cast<const std::uint32_t*>(
+      glMapNamedBufferRange(m.counts.id(), 0, GLsizeiptr(pixels * 4), GL_MAP_READ_BIT));
+  const auto* events = static_cast<const RayEvent*>(
+      glMapNamedBufferRange(m.events.id(), 0, GLsizeiptr(pixels * m.capacity * sizeof(RayEvent)), GL_MAP_READ_BIT));
+  SegmentListStats lists;
+  if (counts && events) lists = compact_fixed_lists(events, counts, m.capacity, m.width, m.height, out);
+  if (counts) glUnmapNamedBuffer(m.counts.id());
+  if (events) glUnmapNamedBuffer(m.events.id());
+  if (!counts || !events) throw GlError("GlSegmentListBuilder::read_back: cannot map the list buffers");
   gl_check("GlSegmentListBuilder::read_back");
   if (stats) {
     stats->readback_ms = t.ms();
     stats->total_ms += stats->readback_ms;
-    stats->lists = segment_list_stats(out);
+    stats->lists = lists;
   }
 }
 
 GlBuildStats GlSegmentListBuilder::build_segment_lists(const OccupancyGeometry& geometry,
                                                        std::span<const VisibilityEntry> order, const RayGenerator& gen,
                                                        SegmentListBuffer& out, float eps) {
-  GlBuildStats st = build(geometry, order, gen, out.capacity, eps);
+  GlBuildStats st = build(geometry, order, gen, impl_->options.list_capacity, eps);
   read_back(out, &st);
   return st;
 }
-
-std::uint32_t GlSegmentListBuilder::events_buffer() const { return impl_->events.id(); }
-std::uint32_t GlSegmentListBuilder::counts_buffer() const { return impl_->counts.id(); }
 
 }  // namespace sl

@@ -8,9 +8,12 @@
 //  - fallback (no interlock, e.g. Mesa llvmpipe): fragments append (entry index, t) records to
 //    per-pixel linked lists in a global pool; a compute pass sorts each pixel's records by entry index
 //    and applies the same add_event.
-// Either way the lists equal build_segment_lists's for the same inputs, in the same layout (events
-// of pixel i at [i * capacity ...), count words with the overflow flag), so they can be read back for
-// the CPU caster or handed to CUDA (events_buffer(), counts_buffer()).
+// Either way the lists equal build_segment_lists's for the same inputs. On the GPU each pixel has a
+// fixed capacity (events of pixel i at [i * capacity ...), count words with the overflow flag); a
+// list that needs more is made conservative (add_event's tail rule: its open last segment is sampled
+// to the volume exit) and counted in SegmentListStats::overflows, so only such lists differ from the
+// CPU builder's, which has no capacity. read_back compacts the lists into the CPU builder's layout
+// (compact_fixed_lists), the one the casters read.
 //
 // Large images are built in bands of rows: a band's lists must fit one shader-storage binding
 // (GL_MAX_SHADER_STORAGE_BLOCK_SIZE, 128 MiB on llvmpipe).
@@ -47,6 +50,9 @@ struct GlBuilderOptions {
   std::size_t max_record_bytes = std::size_t(1) << 30;
   // Bytes of one band's lists (0: the storage-block limit). Tests use small bands.
   std::size_t max_band_bytes = 0;
+  // Events per pixel list of build_segment_lists (2..kMaxEvents): the GPU storage is pixels x this.
+  // Neurite scenes stay well below (about 30 events at most).
+  std::uint32_t list_capacity = 32;
 };
 
 struct GlBuildStats {
@@ -74,9 +80,9 @@ class GlSegmentListBuilder {
   // (2..kMaxEvents); eps > 0 enables the conservative short-gap rule, as in build_segment_lists.
   GlBuildStats build(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
                      const RayGenerator& gen, std::uint32_t capacity = kMaxEvents, float eps = 0.0f);
-  // Copies the lists of the last build into `out` (reset to the build's size and capacity).
+  // Copies the lists of the last build into `out`, compacted (reset to the build's size).
   void read_back(SegmentListBuffer& out, GlBuildStats* stats = nullptr) const;
-  // build + read_back with the CPU builder's signature: `out` keeps its capacity.
+  // build (with options' list_capacity) + read_back, with the CPU builder's signature.
   GlBuildStats build_segment_lists(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
                                    const RayGenerator& gen, SegmentListBuffer& out, float eps = 0.0f);
 
@@ -84,11 +90,6 @@ class GlSegmentListBuilder {
   // while each fragment keeps its entry's index, so records reach the resolve scrambled. Empty: draw
   // in visibility order.
   void set_draw_order_for_testing(std::vector<std::uint32_t> draw_order);
-
-  // The lists of the last build, for buffer interop (cudaGraphicsGLRegisterBuffer): W*H*capacity
-  // RayEvents and W*H count words, laid out as SegmentListBuffer.
-  std::uint32_t events_buffer() const;
-  std::uint32_t counts_buffer() const;
 
  private:
   struct Impl;

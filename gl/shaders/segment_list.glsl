@@ -43,7 +43,6 @@ void sl_add_event(uint base, inout uint count_word, inout float t_seen, uint cap
   } else {
     t_seen = t;
   }
-  const SlRayEvent e = sl_make_event(t, type, cls);
   if (n > 0u && sl_events[base + n - 1u].t == t) {  // isEqual(eventPrev.depth, depth): same-depth rules
     SlRayEvent prev = sl_events[base + n - 1u];
     if (sl_event_type(prev) == type) {
@@ -70,6 +69,7 @@ void sl_add_event(uint base, inout uint count_word, inout float t_seen, uint cap
     }
   }
   if (n > 0u && sl_event_class(sl_events[base + n - 1u]) == cls) return;  // no-op event
+  const SlRayEvent e = sl_make_event(t, type, cls);  // made only now that it is kept
   const uint m = sl_absorb_short_gap(base, n, e, eps);
   if (m != SL_NO_RULE) {
     count_word = m;

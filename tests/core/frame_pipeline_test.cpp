@@ -55,8 +55,10 @@ TEST(FramePipeline, ListsAreRebuiltOnlyForANewViewTreeMethodOrGapThreshold) {
   const SegmentListView v = p.lists(f.tree, SkipMethod::SparseLeap, f.gen, 0.0f, st);
   EXPECT_EQ(builds, 1);
   EXPECT_EQ(v.width, 40);
-  EXPECT_EQ(v.capacity, kListCapacity);
+  EXPECT_EQ(v.event_count, st.events);
   EXPECT_GT(st.events, 0u);
+  EXPECT_GE(st.list_bytes, st.events * sizeof(RayEvent) + 2u * 40u * 30u * 4u);
+  EXPECT_EQ(st.list_overflows, 0u);
   const std::uint64_t events = st.events;
 
   Stats again;
@@ -81,7 +83,8 @@ TEST(FramePipeline, ListsAreRebuiltOnlyForANewViewTreeMethodOrGapThreshold) {
 
   // bbox lists take the same key but are not SparseLeap lists: the builder is not asked.
   const SegmentListView b = p.lists(f.tree, SkipMethod::BBox, f.gen, 0.0f, st);
-  EXPECT_EQ(b.capacity, 2u);
+  EXPECT_EQ(b.event_count, st.events);
+  EXPECT_EQ(b.event_count % 2u, 0u);  // two events per list
   EXPECT_EQ(builds, 5);
   p.geometry(f.tree, st);
   p.lists(f.tree, SkipMethod::SparseLeap, f.gen, 0.0f, st);

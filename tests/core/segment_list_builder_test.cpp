@@ -1,6 +1,7 @@
 // The CPU tile builder (paper §7.3): equal to a brute-force per-pixel construction for perspective,
-// orthographic and inside cameras and grazing rays; identical for any thread count; conservative
-// screen rectangles; the bounding-geometry baseline.
+// orthographic and inside cameras and grazing rays, and for lists longer than its scratch; identical
+// for any thread count; compact storage reused across frames; the 4-wide slab test against its scalar
+// twin and intersect(); conservative screen rectangles; the bounding-geometry baseline.
 #include "core/segment_list_builder.h"
 
 #include <gtest/gtest.h>
@@ -72,14 +73,19 @@ void expect_same_lists(const SegmentListBuffer& a, const SegmentListBuffer& b) {
 void check_against_reference(const Fixture& f, const Camera& cam, int w, int h, float eps) {
   const RayGenerator gen = make_ray_generator(cam, w, h);
   const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
-  SegmentListBuffer tiles, brute;
+  SegmentListBuffer tiles, scalar, brute;
   const SegmentListStats s = build_segment_lists(f.geometry, order, gen, tiles, eps);
+  const SegmentListStats c = build_segment_lists(f.geometry, order, gen, scalar, eps, ListBuildPath::Scalar);
   const SegmentListStats r = build_segment_lists_reference(f.geometry, order, gen, brute, eps);
   expect_same_lists(tiles, brute);
+  expect_same_lists(scalar, brute);  // the fast path's scalar twin (STYLE.md #15)
+  EXPECT_EQ(s.slab_tests, c.slab_tests);
   EXPECT_EQ(s.events, r.events);
   EXPECT_EQ(s.segments, r.segments);
   EXPECT_EQ(s.max_events, r.max_events);
+  EXPECT_EQ(s.overflows, 0u);
   EXPECT_GT(s.lists, 0u);
+  EXPECT_GT(s.slab_tests, 0u);
 }
 
 TEST(SegmentListBuilder, TilesEqualBruteForcePerspective) {
@@ -109,25 +115,175 @@ TEST(SegmentListBuilder, TilesEqualBruteForceGrazingFacesAndEdges) {
   check_against_reference(f, perspective(vec3(0.25f, 0.5f, 0.5f), vec3(0.25f, 0.5f, -1.0f), 100.0f), 31, 31, 0.0f);
 }
 
-TEST(SegmentListBuilder, BudgetedGeometryAndSmallCapacity) {
+TEST(SegmentListBuilder, BudgetedGeometry) {
   const Fixture full = rich_fixture(9, ivec3(64), vec3(1.0f));
   const Fixture f = rich_fixture(9, ivec3(64), vec3(1.0f), full.geometry.boxes.size() / 2);
   EXPECT_TRUE(f.geometry.truncated);
   EXPECT_LE(f.geometry.boxes.size(), full.geometry.boxes.size() / 2);
   check_against_reference(f, perspective(vec3(80.0f, 90.0f, 100.0f), vec3(32.0f)), 40, 40, 0.0f);
-  const Fixture g = rich_fixture(10, ivec3(64), vec3(1.0f));
-  const RayGenerator gen = make_ray_generator(perspective(vec3(80.0f, 90.0f, 100.0f), vec3(32.0f)), 40, 40);
-  const auto order = build_visibility_order(g.tree, g.geometry, view_point(gen));
-  SegmentListBuffer small, brute;
-  small.capacity = brute.capacity = 3;
-  const SegmentListStats s = build_segment_lists(g.geometry, order, gen, small);
-  build_segment_lists_reference(g.geometry, order, gen, brute);
-  expect_same_lists(small, brute);
-  EXPECT_GT(s.overflows, 0u);
-  EXPECT_LE(s.max_events, 3u);
+}
+
+// Blocks alternating EMPTY / NON_EMPTY along x: a ray along x crosses one leaf per block, so its list
+// holds about one event per block — far more than the tile scratch starts with (32 per pixel).
+Fixture striped_fixture(int blocks_x) {
+  const BlockGrid grid = make_block_grid(ivec3(4 * blocks_x, 8, 8), vec3(1.0f), 4);
+  std::vector<C> classes(grid.block_count());
+  for (int z = 0; z < grid.blocks.z; ++z) {
+    for (int y = 0; y < grid.blocks.y; ++y) {
+      for (int x = 0; x < grid.blocks.x; ++x) {
+        classes[grid.block_index(ivec3(x, y, z))] = x % 2 ? C::Empty : C::NonEmpty;
+      }
+    }
+  }
+  Fixture f{OccupancyTree::from_block_classes(grid, classes), {}};
+  f.geometry = build_occupancy_geometry(f.tree);
+  return f;
+}
+
+TEST(SegmentListBuilder, LongListsNeverOverflow) {
+  const Fixture f = striped_fixture(150);
+  const Camera cam = perspective(vec3(-40.0f, 5.0f, 6.0f), vec3(300.0f, 4.0f, 4.0f), 4.0f);
+  const RayGenerator gen = make_ray_generator(cam, 37, 29);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  SegmentListBuffer tiles, scalar, brute;
+  const SegmentListStats s = build_segment_lists(f.geometry, order, gen, tiles);
+  build_segment_lists(f.geometry, order, gen, scalar, 0.0f, ListBuildPath::Scalar);
+  build_segment_lists_reference(f.geometry, order, gen, brute);
+  expect_same_lists(tiles, brute);
+  expect_same_lists(scalar, brute);
+  EXPECT_GT(s.max_events, 2u * kMaxEvents);  // the tile scratch grew (twice at least)
+  EXPECT_EQ(s.overflows, 0u);
+  EXPECT_EQ(s.events, tiles.event_count);
+  // The reference bounded to a capacity, as the GL builder's lists are: open, conservative tails.
+  SegmentListBuffer small;
+  const SegmentListStats b = build_segment_lists_reference(f.geometry, order, gen, small, 0.0f, 5u);
+  EXPECT_GT(b.overflows, 0u);
+  EXPECT_LE(b.max_events, 5u);
   for (std::size_t i = 0; i < small.counts.size(); ++i) {
     if (!small.overflowed(i)) continue;
     EXPECT_NE(C(small.list(i)[small.count(i) - 1].cls), C::Empty);  // open tail sampled to the exit
+  }
+}
+
+TEST(SegmentListBuilder, StorageIsCompactAndReusedAcrossFrames) {
+  const Fixture f = rich_fixture(13, ivec3(64), vec3(1.0f));
+  const RayGenerator big = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 80, 64);
+  const RayGenerator small = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 40, 32);
+  SegmentListBuffer b;
+  const auto big_order = build_visibility_order(f.tree, f.geometry, view_point(big));
+  const SegmentListStats first = build_segment_lists(f.geometry, big_order, big, b);
+  EXPECT_EQ(b.event_count, first.events);
+  EXPECT_GE(b.events.size(), first.events);
+  EXPECT_LE(b.events.capacity(), first.events + first.events / 8 + 1) << "grown to what the frame needs";
+  EXPECT_EQ(b.storage_bytes(), b.events.capacity() * sizeof(RayEvent) + 2u * 80u * 64u * 4u);
+  const RayEvent* storage = b.events.data();
+  const std::size_t capacity = b.events.capacity();
+  for (int frame = 0; frame < 3; ++frame) {  // fewer events: nothing is allocated again
+    const RayGenerator& gen = frame % 2 ? big : small;
+    const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+    const SegmentListStats s = build_segment_lists(f.geometry, order, gen, b);
+    EXPECT_EQ(b.events.data(), storage);
+    EXPECT_EQ(b.events.capacity(), capacity);
+    EXPECT_EQ(b.event_count, s.events);
+    SegmentListBuffer fresh;
+    build_segment_lists_reference(f.geometry, order, gen, fresh);
+    expect_same_lists(b, fresh);
+  }
+}
+
+TEST(SegmentListBuilder, FixedCapacityListsAreCompacted) {  // the GL builder's read back
+  const Fixture f = rich_fixture(17, ivec3(64), vec3(1.0f));
+  const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 37, 29);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  constexpr std::uint32_t kCap = 6;
+  SegmentListBuffer bounded;
+  const SegmentListStats b = build_segment_lists_reference(f.geometry, order, gen, bounded, 0.0f, kCap);
+  ASSERT_GT(b.overflows, 0u);
+  // The fixed layout: pixel i's events at [i * kCap ...), garbage past its count.
+  const std::size_t pixels = bounded.counts.size();
+  std::vector<RayEvent> fixed(pixels * kCap, detail::make_event(-1.0f, EventType::Exit, C::Unknown));
+  for (std::size_t i = 0; i < pixels; ++i) std::copy_n(bounded.list(i), bounded.count(i), fixed.data() + i * kCap);
+  std::vector<std::uint32_t> words = bounded.counts;
+  ASSERT_EQ(bounded.count(0), 0u);
+  words[0] = kListOverflow;  // an empty list with the flag (the GL fallback's missed pixel) stays so
+  SegmentListBuffer compact;
+  const SegmentListStats c = compact_fixed_lists(fixed.data(), words.data(), kCap, gen.width, gen.height, compact);
+  EXPECT_EQ(compact.counts[0], kListOverflow);
+  compact.counts[0] = bounded.counts[0];
+  expect_same_lists(compact, bounded);
+  EXPECT_EQ(c.events, b.events);
+  EXPECT_EQ(c.overflows, b.overflows);
+  EXPECT_EQ(compact.event_count, b.events);
+}
+
+TEST(SegmentListBuilder, TileBuilderNeedsADepthFirstOrder) {
+  const Fixture f = rich_fixture(7, ivec3(64), vec3(1.0f));
+  const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 20, 20);
+  auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  ASSERT_GE(order.size(), 4u);
+  std::swap(order[order.size() - 1], order[order.size() - 2]);  // the root's BACK no longer closes it
+  SegmentListBuffer b;
+  EXPECT_THROW(build_segment_lists(f.geometry, order, gen, b), std::logic_error);
+  order.pop_back();  // a box left open
+  std::swap(order[order.size() - 1], order[order.size() - 2]);
+  EXPECT_THROW(build_segment_lists(f.geometry, order, gen, b), std::logic_error);
+}
+
+// The 4-wide slab test and its scalar twin give intersect()'s hit decision and, on a hit, its t0 and
+// t1 bit for bit (STYLE.md #15), lane for lane — including rays parallel to an axis, origins on a
+// slab's plane, inside the box, and boxes of zero thickness.
+RC_GTEST_PROP(SegmentListBuilderProperty, Slab4EqualsIntersectLaneForLane, (std::uint64_t seed)) {
+  std::uint64_t st = seed;
+  auto next = [&] {
+    st = st * 6364136223846793005ull + 1442695040888963407ull;
+    return st >> 11;
+  };
+  auto u = [&](float a, float b) { return a + (b - a) * float(double(next()) * 0x1.0p-53); };
+  const float grid[] = {0.0f, 0.25f, 0.5f, 1.0f};  // snapped values: coincident planes and origins
+  auto coord = [&](float a, float b) { return next() % 3 == 0 ? grid[next() % 4] : u(a, b); };
+  Box3 box;
+  for (int a = 0; a < 3; ++a) {
+    const float p = coord(-1, 1), q = next() % 8 == 0 ? p : coord(-1, 1);
+    box.lo[a] = std::min(p, q);
+    box.hi[a] = std::max(p, q);
+  }
+  alignas(16) float o[3][8], inv[3][8];
+  Ray rays[8];
+  for (int k = 0; k < 8; ++k) {
+    vec3 d;
+    const bool aim = next() % 2 == 0;  // at a point of the box (or near it): hits are common
+    for (int a = 0; a < 3; ++a) {
+      rays[k].origin[a] = coord(-2, 2);
+      d[a] = aim ? u(box.lo[a] - 0.1f, box.hi[a] + 0.1f) - rays[k].origin[a] : u(-1, 1);
+      if (next() % 4 == 0) d[a] = next() % 4 == 0 ? -0.0f : 0.0f;
+    }
+    if (d == vec3(0.0f)) d.z = 1.0f;
+    rays[k].dir = glm::normalize(d);
+    for (int a = 0; a < 3; ++a) {
+      if (d[a] == 0.0f) rays[k].dir[a] = d[a];  // keep the signed zero
+      o[a][k] = rays[k].origin[a];
+      inv[a][k] = detail::slab_reciprocal(rays[k].dir[a]);
+    }
+  }
+  const float* const op[3] = {o[0], o[1], o[2]};
+  const float* const ip[3] = {inv[0], inv[1], inv[2]};
+  for (std::size_t i : {std::size_t(0), std::size_t(3), std::size_t(4)}) {  // aligned and unaligned lanes
+    alignas(16) float s0[4], s1[4], v0[4], v1[4];
+    const unsigned fast = detail::slab4<ListBuildPath::Fast>(op, ip, i, box, v0, v1);
+    const unsigned scalar = detail::slab4<ListBuildPath::Scalar>(op, ip, i, box, s0, s1);
+    RC_ASSERT(fast == scalar);
+    RC_CLASSIFY(scalar != 0u, "some lane hits");
+    for (int k = 0; k < 4; ++k) {
+      const Interval iv = intersect(rays[i + std::size_t(k)], box);
+      const bool hit = !iv.empty() && iv.t1 > 0.0f;
+      RC_ASSERT(((scalar >> k) & 1u) == (hit ? 1u : 0u));
+      RC_ASSERT(std::memcmp(&v0[k], &s0[k], 4) == 0);
+      RC_ASSERT(std::memcmp(&v1[k], &s1[k], 4) == 0);
+      if (hit) {
+        RC_ASSERT(std::memcmp(&s0[k], &iv.t0, 4) == 0);
+        RC_ASSERT(std::memcmp(&s1[k], &iv.t1, 4) == 0);
+      }
+    }
   }
 }
 
@@ -196,7 +352,7 @@ TEST(SegmentListBuilder, BboxListsSpanFirstEntryToLastExitOfNonEmptyBoxes) {
   const RayGenerator gen = make_ray_generator(perspective(vec3(50.0f, 40.0f, 70.0f), vec3(16.0f)), 31, 29);
   SegmentListBuffer b;
   const SegmentListStats s = build_bbox_lists(leaves, gen, b);
-  EXPECT_EQ(b.capacity, 2u);
+  EXPECT_EQ(s.max_events, 2u);
   EXPECT_GT(s.lists, 0u);
   for (int y = 0; y < gen.height; ++y) {
     for (int x = 0; x < gen.width; ++x) {

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <vector>
 
 #include "core/occupancy_geometry.h"
@@ -189,20 +190,49 @@ TEST(SegmentList, BoxEventsFollowTheSlabTest) {
   EXPECT_FALSE(intersect(edge, holding).empty());
 }
 
-TEST(SegmentList, BufferAndViewAddressPixels) {
+TEST(SegmentList, BufferAndViewAddressCompactLists) {
   SegmentListBuffer b;
-  b.reset(3, 2, 8);
-  EXPECT_EQ(b.events.size(), 48u);
-  float t_seen = kNoEventYet;
-  add_event(b.list(b.pixel(2, 1)), b.counts[b.pixel(2, 1)], t_seen, b.capacity, 1.0f, kEntry, C::Unknown, 0.0f);
-  add_event(b.list(b.pixel(2, 1)), b.counts[b.pixel(2, 1)], t_seen, b.capacity, 2.0f, kExit, C::Invalid, 0.0f);
+  b.reset(3, 2);
+  EXPECT_EQ(b.offsets.size(), 6u);
+  EXPECT_EQ(b.count(0), 0u);
+  // Pixel 5's two events stored first, then pixel 1's one: lists lie in any order of the pixels.
+  SegmentList l5, l1;
+  l5.add(1.0f, kEntry, C::Unknown);
+  l5.add(2.0f, kExit, C::Invalid);
+  l1.add(0.5f, kEntry, C::NonEmpty);
+  b.events.assign(l5.events, l5.events + 2);
+  b.events.push_back(l1.events[0]);
+  b.event_count = 3;
+  b.offsets[5] = 0;
+  b.counts[5] = l5.count_word;
+  b.offsets[1] = 2;
+  b.counts[1] = 1u | kListOverflow;
   const SegmentListView v = b.view();
+  EXPECT_EQ(v.event_count, 3u);
   EXPECT_EQ(v.count(5), 2u);
   EXPECT_FALSE(v.overflowed(5));
-  EXPECT_EQ(v.list(5), b.events.data() + 40);
+  EXPECT_EQ(v.list(5), b.events.data());
   EXPECT_EQ(C(v.list(5)[0].cls), C::Unknown);
   EXPECT_EQ(segment_count(v.list(5), v.count(5)), 1u);
+  EXPECT_EQ(v.count(1), 1u);
+  EXPECT_TRUE(v.overflowed(1));
+  EXPECT_EQ(v.list(1), b.events.data() + 2);
+  EXPECT_EQ(segment_count(v.list(1), v.count(1)), 1u);  // open: its segment runs to the volume exit
   EXPECT_EQ(v.count(0), 0u);
+  EXPECT_EQ(b.storage_bytes(), b.events.capacity() * sizeof(RayEvent) + 12u * 4u);
+  // A copy (as a device receives it) addresses the same lists.
+  SegmentListBuffer c;
+  c.assign(v);
+  EXPECT_EQ(c.event_count, 3u);
+  EXPECT_EQ(c.offsets, b.offsets);
+  EXPECT_EQ(c.counts, b.counts);
+  EXPECT_EQ(std::memcmp(c.events.data(), b.events.data(), 3 * sizeof(RayEvent)), 0);
+  // reset empties every list and keeps the storage.
+  const RayEvent* storage = b.events.data();
+  b.reset(2, 2);
+  EXPECT_EQ(b.event_count, 0u);
+  EXPECT_EQ(b.count(3), 0u);
+  EXPECT_EQ(b.events.data(), storage);
 }
 
 // ---- the SparseLeap property over random trees and rays (segment_rules.py, C++ edition) ----

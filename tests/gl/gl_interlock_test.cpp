@@ -44,9 +44,10 @@ void check_interlock_program() {
       const RayGenerator gen = make_ray_generator(cam, 61, 47);
       const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
       SegmentListBuffer cpu, gl;
-      cpu.capacity = gl.capacity = eps > 0.0f ? kMaxEvents : 5u;  // also the overflow rule
-      build_segment_lists(f.geometry, order, gen, cpu, eps);
-      const GlBuildStats st = b.build_segment_lists(f.geometry, order, gen, gl, eps);
+      const std::uint32_t capacity = eps > 0.0f ? kMaxEvents : 5u;  // also the overflow rule
+      build_segment_lists_reference(f.geometry, order, gen, cpu, eps, capacity);
+      GlBuildStats st = b.build(f.geometry, order, gen, capacity, eps);
+      b.read_back(gl, &st);
       EXPECT_EQ(st.path, GlListPath::Interlock);
       test::expect_same_lists(*ctx, gl, cpu);
     }

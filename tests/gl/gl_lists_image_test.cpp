@@ -95,7 +95,6 @@ void compare_images(GlContext& ctx, const OccupancyTree& tree, const OccupancyGe
   const RayGenerator gen = make_ray_generator(cam, w, h);
   const auto order = build_visibility_order(tree, geometry, view_point(gen));
   SegmentListBuffer cpu, gl;
-  cpu.capacity = gl.capacity = kListCapacity;
   build_segment_lists(geometry, order, gen, cpu);
   GlSegmentListBuilder builder(ctx);
   builder.build_segment_lists(geometry, order, gen, gl);

@@ -28,14 +28,20 @@ struct Built {
   GlBuildStats stats;
 };
 
+// GL lists of `capacity` events per pixel against the CPU's: the tile builder's (no capacity) at
+// kMaxEvents, where these fixtures' lists fit; below it the reference bounded to the same capacity.
 Built build_both(GlSegmentListBuilder& b, const GlFixture& f, const Camera& cam, int w, int h, float eps = 0.0f,
                  std::uint32_t capacity = kMaxEvents) {
   Built r;
   r.gen = make_ray_generator(cam, w, h);
   r.order = build_visibility_order(f.tree, f.geometry, view_point(r.gen));
-  r.cpu.capacity = r.gl.capacity = capacity;
-  build_segment_lists(f.geometry, r.order, r.gen, r.cpu, eps);
-  r.stats = b.build_segment_lists(f.geometry, r.order, r.gen, r.gl, eps);
+  if (capacity < kMaxEvents) {
+    build_segment_lists_reference(f.geometry, r.order, r.gen, r.cpu, eps, capacity);
+  } else {
+    build_segment_lists(f.geometry, r.order, r.gen, r.cpu, eps);
+  }
+  r.stats = b.build(f.geometry, r.order, r.gen, capacity, eps);
+  b.read_back(r.gl, &r.stats);
   return r;
 }
 
@@ -46,6 +52,7 @@ void check_equal(GlContext& ctx, GlSegmentListBuilder& b, const GlFixture& f, co
   EXPECT_EQ(r.stats.dropped_pixels, 0u);
   EXPECT_GT(r.stats.lists.lists, 0u);
   EXPECT_EQ(r.stats.lists.events, segment_list_stats(r.cpu).events);
+  EXPECT_EQ(r.gl.event_count, r.stats.lists.events);  // read back compactly
 }
 
 // Hit entries per pixel, brute force: the records the fallback appends (Alg. 4's hit rule).
@@ -160,6 +167,29 @@ TEST(GlSegmentListBuilder, ShortGapRuleAndSmallCapacityMatch) {
   test::expect_same_lists(*ctx, r.gl, r.cpu);
   EXPECT_GT(r.stats.lists.overflows, 0u);
   EXPECT_EQ(r.stats.lists.overflows, segment_list_stats(r.cpu).overflows);
+}
+
+TEST(GlSegmentListBuilder, ListCapacityOptionBoundsTheListsOnTheGpuOnly) {
+  SL_REQUIRE_GL(ctx);
+  GlBuilderOptions o;
+  o.list_capacity = 4;
+  GlSegmentListBuilder b(*ctx, o);
+  const GlFixture& f = odd_fixture();
+  const Camera cam = gl_perspective(vec3(100.0f, 70.0f, 150.0f), vec3(30.0f, 16.0f, 45.0f));
+  const RayGenerator gen = make_ray_generator(cam, 61, 47);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  SegmentListBuffer gl, bounded, exact;
+  const GlBuildStats st = b.build_segment_lists(f.geometry, order, gen, gl);
+  build_segment_lists_reference(f.geometry, order, gen, bounded, 0.0f, 4u);
+  test::expect_same_lists(*ctx, gl, bounded);
+  EXPECT_GT(st.lists.overflows, 0u);
+  EXPECT_LE(st.lists.max_events, 4u);
+  // Read back compactly: the events the lists hold, not pixels x capacity.
+  EXPECT_EQ(gl.event_count, st.lists.events);
+  EXPECT_LT(gl.event_count, std::size_t(61) * 47 * 4);
+  const SegmentListStats e = build_segment_lists(f.geometry, order, gen, exact);  // the CPU: no capacity
+  EXPECT_EQ(e.overflows, 0u);
+  EXPECT_GT(e.max_events, 4u);
 }
 
 TEST(GlSegmentListBuilder, FallbackResolveRestoresScrambledFragmentOrder) {

@@ -7,12 +7,15 @@
 //
 //  BM_SegmentListBuild/<block>   build_segment_lists (the CPU tile builder, paper §7.3, Alg. 4-5) for
 //      the whole view, from the geometry (Alg. 2) and visibility order (Alg. 3) of the occupancy tree
-//      over culling blocks of <block>³. items = pixels. Counters: entries (visibility entries
-//      rasterized), events (in all lists), segments/pixel (depth complexity, paper Fig. 7).
-//  BM_MergeRules/add_box_event   the per-pixel list insertion as the builder feeds it: for 384 pixels
-//      of the real view (block 16), the recorded sequence of (box, front/back, class, parent class)
-//      the tile builder passes to add_box_event (slab test + Alg. 5 merge rules), replayed per pixel
-//      into an empty list of the renderer's capacity. items = box events fed (hits and misses).
+//      over culling blocks of <block>³, into one buffer reused across iterations (as a renderer does).
+//      items = pixels. Counters: entries (visibility entries rasterized), events (in all lists),
+//      segments/pixel (depth complexity, paper Fig. 7), tests/pixel (slab tests run per pixel, FRONT
+//      entries only: BACK entries reuse them), list_MB (the compact lists' storage).
+//  BM_MergeRules/add_box_event   the per-pixel list insertion, one slab test per entry: for 384
+//      pixels of the real view (block 16), the recorded sequence of (box, front/back, class, parent
+//      class) of the entries whose rectangles cover the pixel, replayed per pixel into add_box_event
+//      (slab test + Alg. 5 merge rules) and an empty list of kMaxEvents capacity. items = box events
+//      fed (hits and misses).
 //  BM_MergeRules/add_event       the same pixels, only the events that hit (t, ENTRY/EXIT, class)
 //      replayed into add_event: the merge rules alone. items = events inserted.
 //  BM_SampleClassifyComposite/<type>  RayCaster<Sampler>::march over every sample of the rays of the
@@ -183,7 +186,6 @@ void BM_SegmentListBuild(benchmark::State& state) {
   const BenchScene& s = scene();
   const Skipping& k = skipping(int(state.range(0)));
   SegmentListBuffer lists;
-  lists.reset(kView, kView, kListCapacity);
   const TimedThreads threads;
   SegmentListStats st;
   for (auto _ : state) {
@@ -197,6 +199,8 @@ void BM_SegmentListBuild(benchmark::State& state) {
   state.counters["entries"] = benchmark::Counter(double(k.order.size()));
   state.counters["events"] = benchmark::Counter(double(st.events));
   state.counters["segments/pixel"] = benchmark::Counter(double(st.segments) / pixels);
+  state.counters["tests/pixel"] = benchmark::Counter(double(st.slab_tests) / pixels);
+  state.counters["list_MB"] = benchmark::Counter(double(lists.storage_bytes()) / double(1 << 20));
   state.counters["overflows"] = benchmark::Counter(double(st.overflows));
 }
 // Process CPU time: with --sl_threads=N > 1 the TBB workers' time counts too (items/s stays per core).
@@ -263,7 +267,6 @@ const MergeTrace& merge_trace() {
     }
     // The trace is what the builder feeds: replayed, it gives the builder's lists event for event.
     SegmentListBuffer built;
-    built.reset(kView, kView, kListCapacity);
     build_segment_lists(k.geometry, k.order, s.gen, built, 0.0f);
     for (std::size_t p = 0; p + 1 < t->box_begin.size(); ++p) {
       const BenchScene::RaySpan& px = s.rays[p * stride];
@@ -272,7 +275,7 @@ const MergeTrace& merge_trace() {
       float t_seen = kNoEventYet;
       for (std::size_t i = t->box_begin[p]; i < t->box_begin[p + 1]; ++i) {
         const BoxEvent& b = t->boxes[i];
-        add_box_event(ev, count, t_seen, built.capacity, px.ray, b.box, b.front, b.cls, b.parent_cls, 0.0f);
+        add_box_event(ev, count, t_seen, kMaxEvents, px.ray, b.box, b.front, b.cls, b.parent_cls, 0.0f);
       }
       const std::size_t q = built.pixel(px.x, px.y);
       SL_CHECK(count == built.counts[q]);
@@ -285,7 +288,7 @@ const MergeTrace& merge_trace() {
 
 void BM_MergeRules_AddBoxEvent(benchmark::State& state) {
   const MergeTrace& t = merge_trace();
-  constexpr std::uint32_t cap = kListCapacity;
+  constexpr std::uint32_t cap = kMaxEvents;
   RayEvent ev[kMaxEvents];
   void* escaped = ev;  // the list's stores stay observable (ClobberMemory per pixel)
   benchmark::DoNotOptimize(escaped);
@@ -315,7 +318,7 @@ BENCHMARK(BM_MergeRules_AddBoxEvent)->Name("BM_MergeRules/add_box_event");
 
 void BM_MergeRules_AddEvent(benchmark::State& state) {
   const MergeTrace& t = merge_trace();
-  constexpr std::uint32_t cap = kListCapacity;
+  constexpr std::uint32_t cap = kMaxEvents;
   RayEvent ev[kMaxEvents];
   void* escaped = ev;
   benchmark::DoNotOptimize(escaped);
