@@ -33,10 +33,9 @@ std::filesystem::path sparseleap_exe() {
   return std::filesystem::path(SL_BINARY_DIR) / "apps" / "sparseleap";
 }
 
-RunResult run_sparseleap(const std::string& args) {
+RunResult run_shell(const std::string& line) {
   RunResult r;
-  const std::string cmd = sparseleap_exe().string() + " " + args + " 2>&1";
-  FILE* pipe = popen(cmd.c_str(), "r");
+  FILE* pipe = popen(line.c_str(), "r");
   if (!pipe) return r;
   std::array<char, 4096> buf{};
   while (size_t n = fread(buf.data(), 1, buf.size(), pipe)) r.output.append(buf.data(), n);
@@ -44,6 +43,8 @@ RunResult run_sparseleap(const std::string& args) {
   r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
   return r;
 }
+
+RunResult run_sparseleap(const std::string& args) { return run_shell(sparseleap_exe().string() + " " + args + " 2>&1"); }
 
 std::string read_text(const std::filesystem::path& p) {
   std::ifstream in(p, std::ios::binary);

@@ -23,6 +23,8 @@ struct RunResult {
   int exit_code = -1;
   std::string output;  // stdout and stderr, interleaved
 };
+// Runs a shell command line and captures its standard output (add "2>&1" for stderr too).
+RunResult run_shell(const std::string& line);
 // Runs `sparseleap <args>` through the shell and captures its output.
 RunResult run_sparseleap(const std::string& args);
 

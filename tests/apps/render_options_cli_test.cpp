@@ -24,16 +24,8 @@ const std::string kSmall = "--volume builtin:neurites:32x32x32 --size 16x12 --ba
 
 // Runs `sparseleap CMD ARGS` with no display (so `view` never opens a window).
 test::RunResult run(const std::string& cmd, const std::string& args) {
-  test::RunResult r;
-  const std::string line = "env -u DISPLAY -u WAYLAND_DISPLAY " + test::sparseleap_exe().string() + " " + cmd + " " +
-                           args + " 2>&1";
-  FILE* pipe = popen(line.c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf{};
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) r.output.append(buf.data(), n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return test::run_shell("env -u DISPLAY -u WAYLAND_DISPLAY " + test::sparseleap_exe().string() + " " + cmd + " " +
+                         args + " 2>&1");
 }
 
 // kSmall's volume and size unless `args` gives its own.

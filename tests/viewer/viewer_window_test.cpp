@@ -50,14 +50,7 @@ RunResult run_with_display(const std::string& display, const std::string& args) 
   if (const char* asan = std::getenv("ASAN_OPTIONS"); asan && !display.empty()) {
     env += "ASAN_OPTIONS='" + std::string(asan) + ":detect_leaks=0' ";
   }
-  RunResult r;
-  FILE* pipe = popen((env + sparseleap_exe().string() + " " + args + " 2>&1").c_str(), "r");
-  if (!pipe) return r;
-  std::array<char, 4096> buf{};
-  while (std::size_t n = std::fread(buf.data(), 1, buf.size(), pipe)) r.output.append(buf.data(), n);
-  const int status = pclose(pipe);
-  r.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return r;
+  return run_shell(env + sparseleap_exe().string() + " " + args + " 2>&1");
 }
 
 class ViewerWindow : public ::testing::Test {
