@@ -109,7 +109,7 @@ RenderJob job_at(const Wanted& w, int level, std::uint64_t id) {
 struct FrameRecord {
   int level = 0;
   double total_ms = 0.0;
-  double shown_at = 0.0;  // seconds (ImGui's clock) when the frame reached the screen
+  double shown_at = 0.0;  // seconds since the loop started, when the frame reached the screen
 };
 
 // Mouse gestures on the canvas (not over a panel).
