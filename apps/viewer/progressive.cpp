@@ -71,6 +71,14 @@ void ProgressiveLevels::observe(int level, double ms) {
   level_ = kCoarsestLevel;
 }
 
+Submission next_submission(bool changed, bool interacting, int last_level, bool worker_idle,
+                           bool full_frame_still_loading) {
+  if (changed) return Submission::Changed;
+  if (!worker_idle) return Submission::None;
+  if (last_level > 0) return interacting ? Submission::None : Submission::Refine;
+  return full_frame_still_loading ? Submission::Repeat : Submission::None;
+}
+
 void FrameRate::tick(double now) {
   times_.push_back(now);
   while (times_.size() > 2 && now - times_.front() > kRateWindowSeconds) times_.pop_front();

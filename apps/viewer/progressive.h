@@ -50,6 +50,18 @@ class ProgressiveLevels {
   std::array<double, kCoarsestLevel + 1> ms_;  // last known time per level, < 0 unknown
 };
 
+// What the interactive loop submits in a UI frame (apps/viewer/ui/viewer.cpp):
+// - Changed: the wanted view differs from the last request: render it at the moving level (a queued
+//   older job is dropped, latest wins);
+// - Refine: the view is unchanged, the user is not dragging, the last request was coarse and the worker
+//   is idle (so the coarse frame was shown first): render it at full resolution;
+// - Repeat: a full-resolution frame is on screen and out of core it is still loading bricks: render
+//   the same view again, each frame more complete (DESIGN.md §4);
+// - None otherwise (dragging without moving keeps the coarse frame).
+enum class Submission { None, Changed, Refine, Repeat };
+Submission next_submission(bool changed, bool interacting, int last_level, bool worker_idle,
+                           bool full_frame_still_loading);
+
 // Frames shown per second over the last second (the overlay's rate of new images; the UI's own rate
 // is ImGui's).
 class FrameRate {

@@ -84,6 +84,18 @@ TEST(ProgressiveLevels, FullResolutionWhenItFitsCoarsestWhenNothingDoes) {
   EXPECT_EQ(settle(slow, affine_cost(100.0, 30.0), 8), kCoarsestLevel);  // fixed costs over the budget
 }
 
+TEST(ProgressiveSchedule, ChangesFirstThenRefineOnceStillAndIdle) {
+  // changed, interacting, last level, worker idle, full frame still loading
+  EXPECT_EQ(next_submission(true, true, 3, false, false), Submission::Changed);  // dragging: coarse, latest wins
+  EXPECT_EQ(next_submission(true, false, 0, true, true), Submission::Changed);   // a key or label toggle
+  EXPECT_EQ(next_submission(false, true, 3, true, false), Submission::None);     // held still mid-drag
+  EXPECT_EQ(next_submission(false, false, 3, false, false), Submission::None);   // coarse frame not shown yet
+  EXPECT_EQ(next_submission(false, false, 3, true, false), Submission::Refine);  // released: full resolution
+  EXPECT_EQ(next_submission(false, false, 0, true, false), Submission::None);    // full frame shown: done
+  EXPECT_EQ(next_submission(false, false, 0, true, true), Submission::Repeat);   // out of core: bricks stream in
+  EXPECT_EQ(next_submission(false, false, 0, false, true), Submission::None);
+}
+
 TEST(FrameRate, CountsFramesOverTheLastSecond) {
   FrameRate r;
   EXPECT_EQ(r.fps(0.0), 0.0);

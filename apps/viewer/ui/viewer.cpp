@@ -451,12 +451,12 @@ int run_viewer(const ViewerOptions& o) {
       }
     } else {
       const Wanted w = wanted(s.orbit->camera());
-      if (!last_wanted || !same_wanted(w, *last_wanted)) {
-        submit(w, moving_level(), next_id++);  // latest wins: a queued older job is dropped
-      } else if (last_level > 0 && !interacting && worker.idle()) {
-        submit(w, 0, next_id++);  // the view is still: refine to full resolution
-      } else if (shown.valid && shown.level == 0 && still_refining(shown.stats) && worker.idle()) {
-        submit(w, 0, next_id++);  // bricks stream in: each frame of the same view is more complete
+      switch (next_submission(!last_wanted || !same_wanted(w, *last_wanted), interacting, last_level, worker.idle(),
+                              shown.valid && shown.level == 0 && still_refining(shown.stats))) {
+        case Submission::Changed: submit(w, moving_level(), next_id++); break;
+        case Submission::Refine:
+        case Submission::Repeat: submit(w, 0, next_id++); break;
+        case Submission::None: break;
       }
     }
 
