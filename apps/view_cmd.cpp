@@ -21,9 +21,17 @@ Runner add_view_command(CLI::App& app) {
   o->render.size = "800x600";
   add_render_options(*c, o->render, Command::View);
   c->add_option("--scale", o->scale, "Render resolution relative to the canvas, (0, 1]")->capture_default_str();
-  c->add_option("--preview-scale", o->preview_scale, "Extra resolution factor while dragging, (0, 1]")->capture_default_str();
+  c->add_option("--progressive", o->progressive,
+                 "on: while the view changes render coarse frames that hold --frame-budget-ms, full resolution "
+                 "once it is still; off: every frame at full resolution")
+      ->capture_default_str();
+  c->add_option("--frame-budget-ms", o->frame_budget_ms, "Time a coarse frame may take (1-10000 ms)")
+      ->capture_default_str();
+  c->add_option("--path", o->path,
+                "Scripted run: replay this camera path (`bench --path` format), one view per frame, then refine "
+                "the last view and exit; prints frames/s");
   c->add_option("--screenshot", o->screenshot, "Save the window (with the UI) to this PNG after --frames frames, then exit");
-  c->add_option("--frames", o->frames, "Render this many frames, then exit (default 3 with --screenshot)");
+  c->add_option("--frames", o->frames, "Render this many views, then exit (default 3 with --screenshot)");
   c->add_option("--spin", o->spin, "Scripted runs: orbit this many degrees per frame (times moving views)");
   c->add_option("--record-path", o->record_path, "Camera-path JSON for `bench --path`: K adds a keyframe; saved on exit");
   c->add_flag("--no-stats", o->no_stats, "Start with the stats overlay hidden");

@@ -25,22 +25,24 @@ struct RenderJob {
   // Snapshots the job owns: the UI keeps editing its own copies while the worker renders.
   std::shared_ptr<const TransferFunction> tf;
   std::shared_ptr<const LabelSet> enabled;  // null: no label mask
-  bool preview = false;                     // reduced resolution while the user drags
+  int level = 0;  // progressive level (apps/viewer/progressive.h): 0 full resolution, else coarse
 };
 
 struct RenderResult {
   std::uint64_t id = 0;
-  bool preview = false;
+  int level = 0;
   Camera camera;  // what was rendered: label picking casts through this view
   int width = 0;
   int height = 0;
   std::vector<std::uint8_t> rgba8;  // sRGB over black, row 0 at the top, alpha 255
   Stats stats;
+  double worker_ms = 0.0;  // wall time of the render and the conversion for display
   std::string error;  // non-empty when the frame failed; the UI shows it and keeps the last image
 };
 
 // What the PNG of a frame shows (DESIGN.md §8: premultiplied colour over black, sRGB-encoded), as
-// 8-bit RGBA for a texture.
+// 8-bit RGBA for a texture: byte for byte the PNG's values (write_png), so a full-resolution frame on
+// screen is the image `render` writes.
 std::vector<std::uint8_t> to_display_rgba8(const Image& img);
 
 class RenderWorker {

@@ -13,7 +13,8 @@ namespace sl::viewer {
 struct ViewSettings {
   RenderSettings render;       // width/height are set per frame from the canvas
   float scale = 1.0f;          // render resolution relative to the canvas (lower = faster)
-  float preview_scale = 0.5f;  // while the camera or transfer function is being dragged
+  bool progressive = true;     // coarse frames while the view changes, full resolution once still
+  double frame_budget_ms = 80.0;  // what a coarse frame may take (apps/viewer/progressive.h)
   bool has_labels = false;     // labels mode needs a label volume
   bool out_of_core = false;    // the out-of-core path renders sparseleap and none only
   bool show_stats = true;

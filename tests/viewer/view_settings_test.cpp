@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
+#include <cmath>
 #include <chrono>
 #include <memory>
 #include <mutex>
@@ -163,11 +165,39 @@ TEST(DisplayImage, PremultipliedOverBlackSrgbEncodedOpaque) {
   ASSERT_EQ(px.size(), 8u);
   EXPECT_EQ(px[0], 255);
   EXPECT_EQ(px[1], 0);
-  EXPECT_NEAR(px[2], std::lround(255.0f * linear_to_srgb(0.5f)), 1);
+  EXPECT_EQ(px[2], std::lround(255.0f * linear_to_srgb(0.5f)));
   EXPECT_EQ(px[3], 255);
   EXPECT_EQ(px[5], 255);
   EXPECT_EQ(px[6], 0);
   EXPECT_EQ(px[7], 255);
+}
+
+// The display bytes are the PNG's (core/image.cpp write_png), so a full-resolution frame on screen is the
+// image `render` writes: every 499th float in [0, 1] and the floats on either side of each code step.
+TEST(DisplayImage, EncodesEveryValueAsThePngDoes) {
+  std::vector<float> values;
+  for (std::uint32_t bits = 0; bits <= std::bit_cast<std::uint32_t>(1.0f); bits += 499) {
+    values.push_back(std::bit_cast<float>(bits));
+  }
+  for (int k = 0; k < 256; ++k) {
+    // Where the code steps from k-1 to k, in the middle of the sRGB curve's inverse.
+    const float v = (float(k) - 0.5f) / 255.0f;
+    const float x = v <= 0.04045f ? v / 12.92f : std::pow((v + 0.055f) / 1.055f, 2.4f);
+    float y = x;
+    for (int i = 0; i < 8; ++i) y = std::nextafter(y, 0.0f);
+    for (int i = 0; i < 16; ++i, y = std::nextafter(y, 2.0f)) values.push_back(y);
+  }
+  values.push_back(1.0f);
+  values.push_back(std::nextafter(1.0f, 0.0f));
+  Image img(int(values.size()), 1);
+  for (std::size_t i = 0; i < values.size(); ++i) img.rgba[i] = vec4(values[i], 0.0f, 0.0f, 1.0f);
+  const std::vector<std::uint8_t> px = to_display_rgba8(img);
+  std::size_t wrong = 0;
+  for (std::size_t i = 0; i < values.size(); ++i) {
+    const long png = std::lround(255.0f * linear_to_srgb(values[i]));
+    if (px[i * 4] != png && ++wrong < 5) ADD_FAILURE() << values[i] << ": display " << int(px[i * 4]) << ", PNG " << png;
+  }
+  EXPECT_EQ(wrong, 0u) << "of " << values.size();
 }
 
 TEST(RenderWorker, RendersTheLatestJobAndReportsErrorsWithoutStopping) {
@@ -187,6 +217,7 @@ TEST(RenderWorker, RendersTheLatestJobAndReportsErrorsWithoutStopping) {
   job.settings.width = 40;
   job.settings.height = 30;
   job.tf = tf;
+  job.level = 2;  // the viewer's progressive level travels with the frame
   w.submit(job);
   w.wait_idle();
   std::optional<RenderResult> r = w.take();
@@ -196,6 +227,8 @@ TEST(RenderWorker, RendersTheLatestJobAndReportsErrorsWithoutStopping) {
   EXPECT_EQ(r->width, 40);
   EXPECT_EQ(r->rgba8.size(), 40u * 30u * 4u);
   EXPECT_GT(r->stats.samples, 0u);
+  EXPECT_EQ(r->level, 2);
+  EXPECT_GT(r->worker_ms, 0.0);
   EXPECT_FALSE(w.take().has_value());  // taken once
 
   job.id = 2;

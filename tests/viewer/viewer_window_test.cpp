@@ -16,6 +16,8 @@
 #include <set>
 #include <string>
 
+#include "core/camera.h"
+#include "core/camera_path.h"
 #include "core/image.h"
 #include "tests/test_util.h"
 
@@ -198,6 +200,47 @@ TEST_F(ViewerWindow, OutOfCoreViewStreamsBricksAndConverges) {
   EXPECT_GT(lit_fraction(Canvas{img}), 0.02);
 }
 
+// Progressive rendering: a replayed path is shown coarse while it moves (a 1 ms budget forces coarse
+// levels), then the last view is refined, and what stays on screen is byte for byte the PNG `render`
+// writes for that view.
+TEST_F(ViewerWindow, TheStillFrameAfterCoarseFramesIsTheRenderImage) {
+  const auto dir = scratch_dir();
+  const std::string path_file = (dir / "orbit.json").string();
+  write_text(path_file, camera_path_to_json(orbit_path(vec3(64.0f), 5)));
+  const std::string shot = (dir / "still.png").string();
+  const RunResult r = run_with_display(
+      display_, "view " + kSmall + " --path " + path_file + " --frame-budget-ms 1 --no-stats --screenshot " + shot);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("view: 5 frames"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("frames/s, pixels 1/"), std::string::npos) << r.output;  // the moving frames were coarse
+  EXPECT_NE(r.output.find("refined in"), std::string::npos) << r.output;
+  // The camera of the last view, read the way the viewer reads the path.
+  const std::string camera_file = (dir / "last.json").string();
+  write_text(camera_file, camera_to_json(load_camera_path(path_file).at(4)));
+  const RunResult rr = run_shell(sparseleap_exe().string() +
+                                 " render --backend cpu --volume builtin:neurites:64x64x64 --size 320x240 --camera " +
+                                 camera_file + " --out " + (dir / "render").string() + " 2>&1");
+  ASSERT_EQ(rr.exit_code, 0) << rr.output;
+  const Image want = read_png((dir / "render.png").string());
+  const Image img = read_png(shot);
+  ASSERT_EQ(want.width, kCanvasW);
+  ASSERT_EQ(img.height, kCanvasH);
+  const Canvas got{img};
+  int differing = 0;
+  for (int y = 0; y < kCanvasH; ++y)
+    for (int x = 0; x < kCanvasW; ++x) differing += got.at(x, y) != want.at(x, y);
+  EXPECT_EQ(differing, 0);
+  EXPECT_GT(lit_fraction(got), 0.02);
+}
+
+TEST_F(ViewerWindow, ProgressiveOffRendersEveryFrameAtFullResolution) {
+  const RunResult r = run_with_display(display_, "view " + kSmall + " --frames 4 --spin 10 --progressive off");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("view: 4 frames"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("pixels 1;"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("refined in"), std::string::npos) << r.output;
+}
+
 // `--lists gl` in the viewer: the OpenGL builder runs on the render worker's own headless context (a
 // context is current on one thread) beside the window's, and the canvas is the CPU lists' image.
 TEST_F(ViewerWindow, GlListsShowTheCpuListsImage) {
@@ -240,7 +283,8 @@ TEST(ViewerCli, BadOptionsFailBeforeAWindowOpens) {
   for (const std::string args : {"view --method warp", "view --mode sideways", "view --size 0x10",
                                  "view --view upside-down", "view --scale 2", "view --volume builtin:nope",
                                  "view --volume /no/such/file.nrrd", "view --mode labels --volume missing.nrrd",
-                                 "view --frames -1",
+                                 "view --frames -1", "view --progressive maybe", "view --frame-budget-ms 0",
+                                 "view --path /no/such/path.json", "view --path p.json --spin 5",
                                  "view --volume builtin:neurites:16x16x16 --cache-mb 64 --method octree",
                                  "view --volume procedural:neurites:64x64x64 --mode labels",
                                  "view --volume builtin:neurites:16x16x16 --cache-mb 64 --lod-bias 0"}) {

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "apps/viewer/progressive.h"
 #include "apps/viewer/ui/tf_label_widgets.h"
 
 namespace sl::viewer {
@@ -118,8 +119,8 @@ void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& inf
     ImGui::TextColored(ImVec4(1.0f, 0.8f, 0.2f, 1.0f), "loading %llu bricks", (unsigned long long)info.pending_loads);
   }
   if (full) {
-    ImGui::Text("%dx%d%s  UI %.0f fps%s", info.render_width, info.render_height, info.preview ? " preview" : "",
-                info.ui_fps, info.rendering ? "  *" : "");
+    ImGui::Text("%dx%d%s%s  UI %.0f fps%s", info.render_width, info.render_height, info.level > 0 ? " coarse " : "",
+                info.level > 0 ? level_label(info.level).c_str() : "", info.ui_fps, info.rendering ? "  *" : "");
   }
   if (!info.error.empty()) {
     ImGui::PushTextWrapPos(ImGui::GetCursorPosX() + 260.0f);

@@ -45,18 +45,18 @@ struct PanelActions {
   bool screenshot = false;
   bool keyframe = false;
   bool save_path = false;
-  bool dragging = false;  // a transfer-function point is being dragged: render previews
+  bool dragging = false;  // a transfer-function point is being dragged: render coarse frames
 };
 
 // The control panel fills the window's left strip [0, width) x [0, height) (window units).
 PanelActions draw_control_panel(PanelModel& m, PanelState& st, float width, float height);
 
-// Extra lines for the overlay beside the frame's Stats (UI rate, preview, pending loads, errors).
+// Extra lines for the overlay beside the frame's Stats (UI rate, coarse level, pending loads, errors).
 struct OverlayInfo {
   float ui_fps = 0.0f;
   int render_width = 0;
   int render_height = 0;
-  bool preview = false;
+  int level = 0;  // progressive level of the frame on screen (0: full resolution)
   bool rendering = false;
   std::uint64_t pending_loads = 0;
   std::string error;

@@ -9,7 +9,7 @@
 namespace sl::viewer {
 
 // Control points over the histogram: left click adds or grabs, drag moves, right click deletes.
-// Returns whether a point is being dragged (the viewer then renders previews).
+// Returns whether a point is being dragged (the viewer then renders coarse frames).
 bool tf_canvas(TfEditor& tf, const std::vector<float>& hist, PanelState& st);
 // Value and colour of the selected point, and deleting it.
 void tf_point_editor(TfEditor& tf, PanelState& st);

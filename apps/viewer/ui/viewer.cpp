@@ -1,29 +1,32 @@
 // The viewer's loop: input -> plain state -> a render job for the worker thread -> the finished frame
 // as a texture behind the ImGui panels. The UI thread never renders, so input stays live during a
-// long frame; while the user drags, frames are rendered at a reduced "preview" resolution and the
-// full-resolution frame follows when the drag ends (progressive refinement).
+// long frame; while the view changes, frames are rendered at a coarse level that holds the frame budget
+// and the full-resolution frame follows once the view is still (progressive rendering,
+// apps/viewer/progressive.h).
 #include "apps/viewer/ui/viewer.h"
 
 #include <imgui.h>
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <memory>
-#include <numeric>
 #include <optional>
 
 #include "apps/scene_renderer.h"
 #include "apps/viewer/label_state.h"
 #include "apps/viewer/orbit_controller.h"
 #include "apps/viewer/path_recorder.h"
+#include "apps/viewer/progressive.h"
 #include "apps/viewer/render_worker.h"
 #include "apps/viewer/screenshot.h"
 #include "apps/viewer/stats_rows.h"
 #include "apps/viewer/tf_editor.h"
 #include "apps/viewer/ui/panels.h"
 #include "apps/viewer/ui/window.h"
+#include "core/camera_path.h"
 #include "core/error.h"
 #include "core/parallel.h"
 
@@ -69,9 +72,44 @@ struct Shown {
   Camera camera;
   int width = 0;
   int height = 0;
-  bool preview = false;
+  int level = 0;  // progressive level of the frame on screen
   Stats stats;
   std::string error;
+};
+
+// What the viewer wants rendered, apart from the resolution: when it differs from the last request,
+// the view is changing and a coarse frame comes first.
+struct Wanted {
+  Camera camera;
+  RenderSettings settings;  // at full resolution
+  std::shared_ptr<const TransferFunction> tf;
+  std::shared_ptr<const LabelSet> enabled;
+};
+
+bool same_wanted(const Wanted& a, const Wanted& b) {
+  return same_camera(a.camera, b.camera) && same_settings(a.settings, b.settings) && a.tf == b.tf &&
+         a.enabled == b.enabled;
+}
+
+RenderJob job_at(const Wanted& w, int level, std::uint64_t id) {
+  RenderJob job;
+  job.id = id;
+  job.camera = w.camera;
+  job.settings = w.settings;
+  job.settings.width = level_extent(w.settings.width, level);
+  job.settings.height = level_extent(w.settings.height, level);
+  job.tf = w.tf;
+  job.enabled = w.enabled;
+  job.level = level;
+  return job;
+}
+
+// A scripted run's frames: the views (frame 0 the start-up frame, then every new view one frame),
+// and the refinement of the last view when it was shown coarse.
+struct FrameRecord {
+  int level = 0;
+  double total_ms = 0.0;
+  double shown_at = 0.0;  // seconds since the loop started, when the frame reached the screen
 };
 
 // Mouse gestures on the canvas (not over a panel).
@@ -88,11 +126,18 @@ ViewSettings settings_from(const ViewerOptions& o, const app::CheckedOptions& ch
   ViewSettings v;
   v.render = checked.settings;
   if (!(o.scale > 0.0f && o.scale <= 1.0f)) throw InputError("--scale", "must be in (0, 1]");
-  if (!(o.preview_scale > 0.0f && o.preview_scale <= 1.0f)) throw InputError("--preview-scale", "must be in (0, 1]");
+  if (o.progressive != "on" && o.progressive != "off") throw InputError("--progressive", "must be on or off");
+  if (!(o.frame_budget_ms >= 1.0 && o.frame_budget_ms <= 10000.0)) {
+    throw InputError("--frame-budget-ms", "must be between 1 and 10000");
+  }
   if (o.frames < 0 || o.frames > 100000) throw InputError("--frames", "must be between 0 and 100000");
   if (!std::isfinite(o.spin)) throw InputError("--spin", "must be a number of degrees");
+  if (!o.path.empty() && (o.frames > 0 || o.spin != 0.0f)) {
+    throw InputError("--path", "sets the views itself: not with --frames or --spin");
+  }
   v.scale = o.scale;
-  v.preview_scale = o.preview_scale;
+  v.progressive = o.progressive == "on";
+  v.frame_budget_ms = o.frame_budget_ms;
   v.show_stats = !o.no_stats;
   return v;
 }
@@ -109,11 +154,27 @@ std::function<RenderWorker::RenderFn()> make_renderer(const ViewerScene& sc, con
   };
 }
 
-void report(const std::vector<double>& ms, const Shown& shown) {
-  if (ms.empty() || !shown.valid) return;
-  const double rest = ms.size() > 1 ? std::accumulate(ms.begin() + 1, ms.end(), 0.0) / double(ms.size() - 1) : ms[0];
-  std::printf("view: %zu frames, first %.1f ms, then %.1f ms mean; last: %s\n", ms.size(), ms[0], rest,
-              stats_summary(shown.stats).c_str());
+// One line for scripts: the views' frame times, the rate at which views 1.. reached the screen (frame
+// 0 is the start-up frame: metadata, first lists) and their pixel levels, then the refinement.
+void report(const std::vector<FrameRecord>& views, const std::optional<FrameRecord>& refined, const Shown& shown) {
+  if (views.empty() || !shown.valid) return;
+  std::printf("view: %zu frames, first %.1f ms", views.size(), views[0].total_ms);
+  if (views.size() > 1) {
+    double sum = 0.0;
+    int finest = kCoarsestLevel, coarsest = 0;
+    for (std::size_t i = 1; i < views.size(); ++i) {
+      sum += views[i].total_ms;
+      finest = std::min(finest, views[i].level);
+      coarsest = std::max(coarsest, views[i].level);
+    }
+    const double n = double(views.size() - 1);
+    const double span = views.back().shown_at - views[0].shown_at;
+    std::printf(", then %.1f ms mean, %.1f frames/s, pixels %s", sum / n, span > 0.0 ? n / span : 0.0,
+                level_label(coarsest).c_str());
+    if (finest != coarsest) std::printf(" to %s", level_label(finest).c_str());
+  }
+  if (refined) std::printf("; refined in %.1f ms", refined->total_ms);
+  std::printf("; last: %s\n", stats_summary(shown.stats).c_str());
 }
 
 // Toggles the label under the cursor: the first visible label along the pixel's ray goes off; where
@@ -208,6 +269,8 @@ int run_viewer(const ViewerOptions& o) {
   if (!o.record_path.empty()) check_output_prefix(o.record_path);
   Session s;
   s.view = settings_from(o, checked);
+  const std::optional<CameraPath> replay =
+      o.path.empty() ? std::nullopt : std::optional<CameraPath>(load_camera_path(o.path));
   const ViewerScene sc = app::load_source_scene(o.render.scene, o.render.out_of_core());
   app::complete_settings(o.render, sc, s.view.render);  // same checks and iso default as `render`
   s.view.has_labels = sc.labels != nullptr;  // labels mode and picking need the label voxels
@@ -243,19 +306,29 @@ int run_viewer(const ViewerOptions& o) {
   if (!backend_notice.empty()) std::fputs(backend_notice.c_str(), stderr);  // all checks passed
   FrameTexture texture;
 
-  const bool scripted = o.frames > 0 || !o.screenshot.empty();
-  const int frames_wanted = o.frames > 0 ? o.frames : 3;
-  int frames_submitted = 0, frames_done = 0, settle = kSettleFrames;
-  std::vector<double> frame_ms;
+  const bool scripted = o.frames > 0 || !o.screenshot.empty() || replay.has_value();
+  const int views_wanted = replay ? replay->frames : o.frames > 0 ? o.frames : 3;
+  int views_submitted = 0, settle = kSettleFrames;
+  bool in_flight = false;  // scripted runs: one job at a time, each a real frame
+  std::uint64_t refine_id = 0;
+  std::vector<FrameRecord> views;
+  std::optional<FrameRecord> refined;
+  ProgressiveLevels levels(s.view.frame_budget_ms);
+  FrameRate rate;
   std::shared_ptr<const TransferFunction> tf_snap;
   std::uint64_t tf_rev = ~std::uint64_t(0);
   std::shared_ptr<const LabelSet> label_snap;
   std::uint64_t label_rev = ~std::uint64_t(0);
-  std::optional<RenderJob> last_job;
+  std::optional<Wanted> last_wanted;
+  int last_level = 0;  // of the last job submitted
   std::uint64_t next_id = 1;
   Shown shown;
   Drag drag;
   bool interacting = false;
+  const auto clock_start = std::chrono::steady_clock::now();
+  const auto seconds = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
+  };
 
   const QuitSignals quit_signals;
   while (!win->should_close() && !g_quit) {
@@ -266,10 +339,20 @@ int run_viewer(const ViewerOptions& o) {
     ImGuiIO& io = ImGui::GetIO();
 
     if (std::optional<RenderResult> r = worker.take()) {
+      const double now = seconds();
+      in_flight = false;
       if (r->error.empty()) {
         texture.upload(r->width, r->height, r->rgba8);
-        shown = Shown{true, r->camera, r->width, r->height, r->preview, std::move(r->stats), {}};
-        if (!r->preview) frame_ms.push_back(shown.stats.time_ms.total);
+        // Metadata is computed once and cached (DESIGN.md §3): it says nothing about later frames.
+        levels.observe(r->level, r->worker_ms - r->stats.time_ms.metadata);
+        rate.tick(now);
+        const FrameRecord rec{r->level, r->stats.time_ms.total, now};
+        if (scripted && r->id == refine_id) {
+          refined = rec;
+        } else if (scripted) {
+          views.push_back(rec);
+        }
+        shown = Shown{true, r->camera, r->width, r->height, r->level, std::move(r->stats), {}};
       } else {
         shown.error = r->error;
         if (scripted) {
@@ -277,7 +360,6 @@ int run_viewer(const ViewerOptions& o) {
           return 1;
         }
       }
-      if (scripted) ++frames_done;
     }
 
     const float win_w = io.DisplaySize.x, win_h = io.DisplaySize.y;
@@ -292,10 +374,17 @@ int run_viewer(const ViewerOptions& o) {
       ImGui::GetBackgroundDrawList()->AddImage(texture.imgui_id(), ImVec2(x0, 0.0f), ImVec2(x0 + cw, ch));
     }
     {
-      OverlayInfo info{io.Framerate, shown.width, shown.height, shown.preview, busy,
+      OverlayInfo info{io.Framerate, shown.width, shown.height, shown.level, busy,
                        shown.valid ? pending_loads(shown.stats) : 0, shown.error};
-      draw_stats_overlay(s.view.show_stats ? stats_rows(shown.stats) : std::vector<StatRow>{}, info, win_w, 0.0f,
-                         s.view.show_stats);
+      std::vector<StatRow> rows;
+      if (s.view.show_stats) {
+        rows = stats_rows(shown.stats);
+        for (StatRow& row : progressive_rows(s.view.progressive, shown.level, rate.fps(seconds()),
+                                             s.view.frame_budget_ms)) {
+          rows.push_back(std::move(row));
+        }
+      }
+      draw_stats_overlay(rows, info, win_w, 0.0f, s.view.show_stats);
     }
     if (!scripted) canvas_input(s, drag, sc, shown, x0, cw, ch, ratio);
     const PanelActions keys = key_input(s);
@@ -314,7 +403,8 @@ int run_viewer(const ViewerOptions& o) {
       }
     }
 
-    // The frame wanted now; submitted only when it differs from the last one asked for.
+    // The frame wanted now: a changed view is rendered at the moving level first, the full-resolution
+    // frame once it is still.
     if (s.tf->revision() != tf_rev) {
       tf_snap = std::make_shared<const TransferFunction>(s.tf->build());
       tf_rev = s.tf->revision();
@@ -324,38 +414,49 @@ int run_viewer(const ViewerOptions& o) {
       label_rev = s.labels->revision();
     }
     interacting = !scripted && (drag.button >= 0 || ImGui::GetTime() - drag.last_wheel < kWheelSettle || a.dragging);
-    RenderJob job;
-    job.preview = interacting && s.view.preview_scale < 1.0f;
-    const float scale = s.view.scale * (job.preview ? s.view.preview_scale : 1.0f);
-    job.settings = s.view.render;
-    job.settings.width = std::max(1, int(std::lround(cw * ratio * scale)));
-    job.settings.height = std::max(1, int(std::lround(ch * ratio * scale)));
-    job.tf = tf_snap;
-    // Labels mode always gets the set (else the renderer scans the label volume for "all" per frame).
-    const bool use_labels = s.labels && (s.labels->masking() || job.settings.mode == RenderMode::Labels);
-    job.enabled = use_labels ? label_snap : nullptr;
+    const auto wanted = [&](const Camera& camera) {
+      Wanted w;
+      w.camera = camera;
+      w.settings = s.view.render;
+      w.settings.width = std::max(1, int(std::lround(cw * ratio * s.view.scale)));
+      w.settings.height = std::max(1, int(std::lround(ch * ratio * s.view.scale)));
+      w.tf = tf_snap;
+      // Labels mode always gets the set (else the renderer scans the label volume for "all" per frame).
+      const bool use_labels = s.labels && (s.labels->masking() || w.settings.mode == RenderMode::Labels);
+      w.enabled = use_labels ? label_snap : nullptr;
+      return w;
+    };
+    const auto submit = [&](const Wanted& w, int level, std::uint64_t id) {
+      worker.submit(job_at(w, level, id));
+      last_wanted = w;
+      last_level = level;
+    };
+    const auto moving_level = [&] { return s.view.progressive ? levels.moving_level() : 0; };
     if (scripted) {
-      // One job at a time, each a real frame: the scripted run measures what the viewer renders.
-      if (frames_submitted < frames_wanted && frames_submitted == frames_done && worker.idle()) {
-        if (frames_submitted > 0 && o.spin != 0.0f) {
+      // Every view is one frame, so the run measures what a user orbiting at this rate sees; a view
+      // that differs from the previous one is a moving frame. The last view is then refined.
+      if (!in_flight && views_submitted < views_wanted) {
+        if (!replay && views_submitted > 0 && o.spin != 0.0f) {
           s.orbit->orbit(o.spin * 3.14159265f / 180.0f / OrbitController::kRadiansPerPixel, 0.0f);
         }
-        job.camera = s.orbit->camera();
-        job.id = next_id++;
-        worker.submit(job);
-        ++frames_submitted;
+        const Wanted w = wanted(replay ? replay->at(views_submitted) : s.orbit->camera());
+        const bool moving = last_wanted && !same_wanted(w, *last_wanted);
+        submit(w, moving ? moving_level() : 0, next_id++);
+        ++views_submitted;
+        in_flight = true;
+      } else if (!in_flight && last_level > 0 && refine_id == 0) {
+        refine_id = next_id++;
+        submit(*last_wanted, 0, refine_id);
+        in_flight = true;
       }
     } else {
-      job.camera = s.orbit->camera();
-      const bool changed = !last_job || !same_camera(job.camera, last_job->camera) ||
-                           !same_settings(job.settings, last_job->settings) || job.tf != last_job->tf ||
-                           job.enabled != last_job->enabled || job.preview != last_job->preview;
-      // While bricks stream in, keep rendering the same view: each frame is more complete.
-      const bool refine = shown.valid && !shown.preview && still_refining(shown.stats) && worker.idle();
-      if (changed || refine) {
-        job.id = next_id++;
-        last_job = job;
-        worker.submit(std::move(job));
+      const Wanted w = wanted(s.orbit->camera());
+      switch (next_submission(!last_wanted || !same_wanted(w, *last_wanted), interacting, last_level, worker.idle(),
+                              shown.valid && shown.level == 0 && still_refining(shown.stats))) {
+        case Submission::Changed: submit(w, moving_level(), next_id++); break;
+        case Submission::Refine:
+        case Submission::Repeat: submit(w, 0, next_id++); break;
+        case Submission::None: break;
       }
     }
 
@@ -367,7 +468,7 @@ int run_viewer(const ViewerOptions& o) {
         s.panel.status = e.what();
       }
     }
-    if (scripted && frames_done >= frames_wanted && --settle <= 0) {
+    if (scripted && int(views.size()) >= views_wanted && !in_flight && last_level == 0 && --settle <= 0) {
       if (!o.screenshot.empty()) save_screenshot(*win, o.screenshot, s.panel);
       break;
     }
@@ -377,7 +478,7 @@ int run_viewer(const ViewerOptions& o) {
     s.path.save(o.record_path);
     std::printf("view: saved %s (%zu keyframes)\n", o.record_path.c_str(), s.path.size());
   }
-  report(frame_ms, shown);
+  report(views, refined, shown);
   return 0;
 }
 

@@ -49,7 +49,7 @@ class Window {
   GLFWwindow* window_ = nullptr;
 };
 
-// The rendered frame as a GL texture (linear filtering: previews are shown stretched).
+// The rendered frame as a GL texture (linear filtering: coarse frames are shown stretched).
 class FrameTexture {
  public:
   FrameTexture() = default;
