@@ -99,6 +99,9 @@ bool paths_overlap(const std::string& a, const std::string& b) {
 }
 
 int run_ingest(const IngestCmdOptions& o) {
+  // An empty name would resolve to the current folder (and hold the input): refused, not tried.
+  if (o.in.empty()) throw InputError("IN", "the input name is empty");
+  if (o.out.empty()) throw InputError("OUT", "the output name is empty");
   for (const std::string& in : {o.in, o.labels}) {
     if (!in.empty() && paths_overlap(in, o.out)) {
       throw InputError(o.out, "is the input " + in + " (or holds it, or lies inside it); choose another OUT");

@@ -9,10 +9,20 @@
 
 namespace sl {
 
+std::string json_too_large(std::uintmax_t bytes) {
+  if (bytes <= kMaxJsonBytes) return {};
+  return "is " + std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB; JSON files are read and parsed whole in memory, at most " +
+         std::to_string(kMaxJsonBytes >> 20) + " MiB";
+}
+
 std::string read_file_text(const std::string& path) {
   // An ifstream opens a directory without complaint and then reads nothing ("malformed JSON").
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec) {
+    if (const std::string why = json_too_large(size); !why.empty()) throw InputError(path, why);
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open file");
   std::stringstream ss;

@@ -2,13 +2,20 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <cstdint>
 #include <string>
 
 #include "core/math.h"
 
 namespace sl {
 
-// Whole file as text; InputError(path, ...) when it cannot be read.
+// Largest JSON file read: it is parsed whole in memory (the DOM takes several times the text), and no
+// transfer function, camera, path or Zarr metadata comes near it; bigger is refused before reading.
+constexpr std::uintmax_t kMaxJsonBytes = std::uintmax_t(64) << 20;
+// "N MiB; JSON files are read whole, at most 64 MiB" when `bytes` exceeds kMaxJsonBytes, else empty.
+std::string json_too_large(std::uintmax_t bytes);
+
+// Whole file as text; InputError(path, ...) when it cannot be read or exceeds kMaxJsonBytes.
 std::string read_file_text(const std::string& path);
 // Parses JSON; InputError(origin, "malformed JSON: ...") on syntax errors.
 nlohmann::json parse_json(const std::string& text, const std::string& origin);

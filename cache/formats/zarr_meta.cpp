@@ -7,6 +7,7 @@
 #include <sstream>
 
 #include "core/error.h"
+#include "core/json_util.h"
 
 namespace sl::zarr {
 namespace {
@@ -18,6 +19,12 @@ using json = nlohmann::json;
 constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
 
 json read_json(const fs::path& file, const std::string& store, const std::string& where) {
+  std::error_code ec;
+  if (const std::uintmax_t size = fs::file_size(file, ec); !ec) {
+    if (const std::string why = json_too_large(size); !why.empty()) {
+      throw InputError(store, where + "'" + file.filename().string() + "' " + why);
+    }
+  }
   std::ifstream f(file, std::ios::binary);
   if (!f) throw InputError(store, where + "cannot read '" + file.filename().string() + "'");
   std::stringstream ss;
