@@ -741,5 +741,58 @@ TEST_F(BadInputCorpus, EveryCaseFailsCleanlyWithOneLine) {
   EXPECT_GE(all.size(), 100u);
 }
 
+// Outputs that are devices are streams (core/atomic_file.h): /dev/null takes the images and the stats
+// and stays /dev/null; nothing appears beside it.
+TEST(OutputStreams, DevNullTakesEveryOutput) {
+  const fs::path dir = test::scratch_dir();
+  test::RunResult r = test::run_sparseleap("render --backend cpu --size 16x16 --volume builtin:neurites:16x16x16 "
+                                           "--out /dev/null --stats-json /dev/null");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("-> /dev/null, /dev/null"), std::string::npos) << r.output;
+  r = test::run_sparseleap("bench --volume builtin:neurites:16x16x16 --size 8x8 --orbit 1 --methods none --csv "
+                           "/dev/null --json /dev/null");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(fs::status("/dev/null").type(), fs::file_type::character);
+  EXPECT_FALSE(fs::exists("/dev/null.png"));
+  EXPECT_FALSE(fs::exists("/dev/null.exr"));
+  // A pipe as the stats file: the JSON arrives through it.
+  r = test::run_shell(test::sparseleap_exe().string() + " render --backend cpu --size 8x8 --volume "
+                      "builtin:neurites:16x16x16 --out " + (dir / "o").string() + " --stats-json /dev/stdout 2>&1 | cat");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("\"raycast\""), std::string::npos) << r.output;
+}
+
+// A label store without the `max_label` attribute (not written by our ingest) and with a corrupt
+// chunk: the max-label scan skips the chunk, and out of core the render goes on with the brick
+// reported and rendered as missing, instead of stopping before the first frame.
+TEST(LabelStore, CorruptChunkWithoutMaxLabelRendersOutOfCore) {
+  const fs::path dir = test::scratch_dir();
+  GeneratedVolume g = generate_volume("neurites", ivec3(32), 1);
+  write_nrrd((dir / "v.nrrd").string(), g.intensity);
+  write_nrrd((dir / "l.nrrd").string(), g.labels);
+  test::RunResult r = test::run_sparseleap("ingest " + (dir / "v.nrrd").string() + " " + (dir / "s.zarr").string() +
+                                           " --labels " + (dir / "l.nrrd").string() + " --chunk 8 --compressor zstd");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const fs::path attrs = dir / "s.zarr" / "labels" / "labels" / ".zattrs";
+  std::string a = test::read_text(attrs);
+  const auto at = a.find(",\n  \"sparseleap\"");
+  ASSERT_NE(at, std::string::npos) << a;
+  test::write_text(attrs, a.substr(0, at) + "\n}\n");
+  const fs::path chunk = first_chunk(dir / "s.zarr" / "labels" / "labels" / "0");
+  test::write_text(chunk, "not zstd at all");
+  const std::string out = (dir / "o").string();
+  r = test::run_sparseleap("render --backend cpu --size 32x32 --cache-mb 16 --brick 8 --block 8 --lod 0 --frames 8 "
+                           "--mode labels --enable all --volume " + (dir / "s.zarr").string() + " --out " + out);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(out + ".png"));
+  EXPECT_NE(r.output.find("warning: brick failed to load"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("corrupt"), std::string::npos) << r.output;
+  // In core there is no fault path: the whole label level is read, and the chunk is the error.
+  r = test::run_sparseleap("render --backend cpu --size 8x8 --mode labels --volume " + (dir / "s.zarr").string() +
+                           " --out " + (dir / "x").string());
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("chunk '"), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace sl
