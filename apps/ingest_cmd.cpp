@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "apps/commands.h"
+#include "apps/scene_loader.h"
 #include "cache/formats/ingest.h"
 #include "core/error.h"
 
@@ -118,6 +119,7 @@ int run_ingest(const IngestCmdOptions& o) {
   }
   io.labels = o.labels;
   io.force = o.force;
+  io.max_memory = in_memory_limit();
   auto progress = std::make_shared<Progress>();
   io.progress = [progress](std::uint64_t done, std::uint64_t total) { progress->update(done, total); };
   IngestResult r;

@@ -112,13 +112,18 @@ LoadedScene load_scene(const SceneOptions& o) {
 
 }  // namespace
 
+std::uint64_t in_memory_limit() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) / 2 : 0;
+}
+
 void check_fits_in_memory(std::uint64_t bytes, const std::string& who, const std::string& what,
                           const std::string& hint) {
-  const double phys = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
-  if (phys > 0.0 && double(bytes) > 0.5 * phys) {
+  const std::uint64_t limit = in_memory_limit();
+  if (limit > 0 && bytes > limit) {
     throw InputError(who, what + " needs " + std::to_string((bytes + (1u << 20) - 1) >> 20) +
-                              " MiB in memory, more than half of this machine's " +
-                              std::to_string(std::uint64_t(phys) >> 20) + " MiB" + hint);
+                              " MiB in memory, more than half of this machine's " + std::to_string((2 * limit) >> 20) +
+                              " MiB" + hint);
   }
 }
 

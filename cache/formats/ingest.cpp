@@ -302,6 +302,11 @@ IngestResult ingest(const std::string& in, const std::string& out, const IngestO
   r.desc = desc;
   r.levels = ingest_levels(desc.dims, o.chunk);
   r.memory_bound = memory_bound(desc, labels ? std::optional(labels->desc().type) : std::nullopt, o.chunk);
+  if (o.max_memory && r.memory_bound > o.max_memory) {
+    const auto mib = [](std::uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20) + " MiB"; };
+    throw InputError(in, "ingest would need " + mib(r.memory_bound) + " for its layers of chunk x X x Y voxels, more than " +
+                             mib(o.max_memory) + " (half of this machine's memory); choose a smaller --chunk");
+  }
   try {
     zarr::WriterOptions wo;
     wo.chunk = o.chunk;

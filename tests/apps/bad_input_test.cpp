@@ -254,6 +254,13 @@ std::vector<Case> nrrd_cases() {
   };
   // Dims that fit the format but not this machine: refused from the header, never allocated.
   const std::uint64_t side = 4096, z = t.phys_bytes / (side * side) + 1;
+  // Ingest streams, but holds a layer of chunk x X x Y voxels per level: 100000² slices cannot fit.
+  c.push_back({"nrrd", "ingest layers larger than memory", [](const fs::path& d) {
+                 const std::string h = "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 100000 100000 2\nencoding: raw\n\n";
+                 write_bytes(d / "v.nrrd", h);
+                 fs::resize_file(d / "v.nrrd", h.size() + 20000000000ull);  // sparse: no disk used
+               },
+               "ingest v.nrrd s.zarr", 1, "v.nrrd: ingest would need"});
   c.push_back({"nrrd", "more voxels than memory",
                with_header("sizes: 16 16 16", "sizes: 4096 4096 " + std::to_string(z)), r, 1,
                "v.nrrd: 4096x4096x" + std::to_string(z) + " u8 needs"});
