@@ -4,7 +4,6 @@
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "core/error.h"
 #include "core/json_util.h"
@@ -27,10 +26,13 @@ json read_json(const fs::path& file, const std::string& store, const std::string
   }
   std::ifstream f(file, std::ios::binary);
   if (!f) throw InputError(store, where + "cannot read '" + file.filename().string() + "'");
-  std::stringstream ss;
-  ss << f.rdbuf();
+  std::string text;
+  if (!read_json_bytes(f, text)) {
+    throw InputError(store, where + "'" + file.filename().string() + "' holds more than " +
+                                std::to_string(kMaxJsonBytes >> 20) + " MiB of JSON");
+  }
   try {
-    return json::parse(ss.str());
+    return json::parse(text);
   } catch (const json::exception& e) {
     throw InputError(store, where + "malformed JSON in '" + file.filename().string() + "' (" + e.what() + ")");
   }

@@ -459,6 +459,9 @@ std::vector<Case> zarr_cases() {
       {"zarr", "info of a bad store", zarray("|u1", "<f8"), "info s.zarr", 1, "s.zarr"},
       {"zarr", "info --stats of a corrupt chunk", chunk([](const fs::path& c) { write_bytes(c, Bytes(300, '\x42')); }),
        "info --stats s.zarr", 1, "s.zarr"},
+      {"zarr", ".zarray of 100 MiB", store("s.zarr", [](const fs::path& s) {
+         fs::resize_file(s / "0" / ".zarray", std::uintmax_t(100) << 20);  // sparse
+       }), r, 1, "s.zarr: level 0 (array '0'): '.zarray' is 100 MiB"},
       {"zarr", "not a store at all", [](const fs::path& d) { fs::create_directory(d / "s.zarr"); }, r, 1, "s.zarr"},
   };
 }
@@ -493,6 +496,8 @@ std::vector<Case> json_cases() {
          write_bytes(d / "tf.json", "{\"points\": [");
          fs::resize_file(d / "tf.json", std::uintmax_t(4) << 30);  // sparse: no disk used
        }, rt, 1, "tf.json: is 4096 MiB; JSON files are read and parsed whole in memory"},
+      {"json", "tf: a device without end", kNothing, kRenderSmall + "--tf /dev/zero", 1,
+       "/dev/zero: holds more than 64 MiB"},
       {"json", "camera: two components", cam(replaced(kCam, "[40,40,40]", "[40,40]")), rc, 1, "cam.json: "},
       {"json", "camera: eye at the centre", cam(replaced(kCam, "[40,40,40]", "[8,8,8]")), rc, 1, "cam.json: "},
       {"json", "camera: up along the view", cam(replaced(kCam, "[0,0,1]", "[1,1,1]")), rc, 1, "cam.json: "},
@@ -515,6 +520,9 @@ std::vector<Case> json_cases() {
       {"json", "path: absurd frames", path(replaced(kPath, "\"frames\":3", "\"frames\":1e15")), bp, 1, "p.json: "},
       {"json", "path: keyframe eye at the centre", path(replaced(kPath, "[-40,40,40]", "[8,8,8]")), bp, 1, "p.json: "},
       {"json", "path: deep nesting", path("{\"frames\": 3, \"keyframes\": " + nest(100000) + "}"), bp, 1, "p.json: "},
+      {"json", "path: a device without end", kNothing,
+       "bench --volume builtin:neurites:16x16x16 --size 8x8 --methods none --path /dev/zero", 1,
+       "/dev/zero: holds more than 64 MiB"},
       {"json", "path: truncated", path(kPath.substr(0, kPath.size() / 2)), bp, 1, "p.json: malformed JSON"},
   };
 }
