@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "apps/commands.h"
+#include "apps/outputs.h"
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
 #include "core/atomic_file.h"
@@ -112,11 +113,18 @@ struct BenchRun {
   int warmup;
   Backend backend;
   RenderSettings rs;
+  OutputFiles& outputs;  // --csv, --json: checked before the run
   const LabelSet* enabled() const { return scene.enabled ? &*scene.enabled : nullptr; }
   std::unique_ptr<SceneRenderer> renderer() const {
     return std::make_unique<SceneRenderer>(scene, o.render, checked, backend);
   }
 };
+
+// The CSV and JSON reports (those asked for), as one set: a failing second one removes the first.
+void write_reports(BenchRun& b, const std::string& csv, const std::string& json) {
+  if (!b.o.csv.empty()) b.outputs.write(b.o.csv, [&](const std::string& p) { write_file_atomic(p, csv); });
+  if (!b.o.json.empty()) b.outputs.write(b.o.json, [&](const std::string& p) { write_file_atomic(p, json); });
+}
 
 // Out of core: per method, a fresh cache renders every view of the path until it converges (no
 // misses, nothing pending) or --max-frames-per-view; reports frames to convergence per view, loads,
@@ -181,8 +189,7 @@ int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
     std::printf("%s: median converged frame %.1f ms, %.1f loads per frame, %d views did not converge\n", method,
                 percentile(conv_ms, 0.5), per_frame, unconverged);
   }
-  if (!o.csv.empty()) write_file_atomic(o.csv, csv.str());
-  if (!o.json.empty()) write_file_atomic(o.json, js.dump(2) + "\n");
+  write_reports(b, csv.str(), js.dump(2) + "\n");
   return 0;
 }
 
@@ -250,8 +257,8 @@ int bench_in_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
                                                {"depth_complexity_avg", s.dc_avg},
                                                {"depth_complexity_max", s.dc_max}};
   }
+  std::ostringstream csv;
   if (!o.csv.empty()) {
-    std::ostringstream csv;
     csv << "method,frame,rasterization,total_ms,metadata_ms,tree_ms,geometry_ms,order_ms,lists_ms,raycast_ms,"
            "samples,useful_samples,depth_complexity_avg,depth_complexity_max,boxes,events,occupancy_misses\n";
     for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
@@ -264,9 +271,8 @@ int bench_in_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
             << s.boxes << ',' << s.events << ',' << s.occupancy_misses << '\n';
       }
     }
-    write_file_atomic(o.csv, csv.str());
   }
-  if (!o.json.empty()) write_file_atomic(o.json, js.dump(2) + "\n");
+  write_reports(b, csv.str(), js.dump(2) + "\n");
   return 0;
 }
 
@@ -285,8 +291,9 @@ int run_bench(const BenchOptions& o) {
   if (o.max_frames_per_view < 1 || o.max_frames_per_view > 100000) {
     throw InputError("--max-frames-per-view", "must be between 1 and 100000");
   }
-  if (!o.csv.empty()) check_output_prefix(o.csv);
-  if (!o.json.empty()) check_output_prefix(o.json);
+  OutputFiles outputs;
+  if (!o.csv.empty()) outputs.add(o.csv);
+  if (!o.json.empty()) outputs.add(o.json);
   const ThreadLimit threads(ro.threads);
 
   const SourceScene scene = load_source_scene(ro.scene, ooc);
@@ -295,7 +302,7 @@ int run_bench(const BenchOptions& o) {
   const CameraPath path = o.path.empty() ? orbit_path(scene.desc.extent(), o.orbit) : load_camera_path(o.path);
   std::string notice;  // printed once the first renderer accepted the settings: bad input stays one line
   const Backend backend = choose_backend(ro.backend, &notice);
-  BenchRun b{o, checked, scene, path, methods, ooc && !o.warmup_given ? 0 : o.warmup, backend, rs};
+  BenchRun b{o, checked, scene, path, methods, ooc && !o.warmup_given ? 0 : o.warmup, backend, rs, outputs};
   b.rs.method = methods[0];
   std::unique_ptr<SceneRenderer> first = b.renderer();
   if (!notice.empty()) std::fputs(notice.c_str(), stderr);

@@ -4,6 +4,8 @@
 #include <regex>
 
 #include "apps/commands.h"
+#include "apps/outputs.h"
+#include "apps/scene_loader.h"
 #include "cache/synthetic/generate.h"
 #include "cache/formats/nrrd.h"
 #include "core/error.h"
@@ -31,22 +33,37 @@ ivec3 parse_dims(const std::string& s) {
 
 int run_gen(const GenOptions& o) {
   const ivec3 dims = parse_dims(o.dims);
-  std::string out = o.out.empty() ? o.kind + ".nrrd" : o.out;
+  const std::string out = o.out.empty() ? o.kind + ".nrrd" : o.out;
+  const bool labelled = generated_kind_has_labels(o.kind);  // throws for an unknown kind
+  std::string lout = o.labels_out;
+  if (lout.empty()) {
+    const auto dot = out.rfind('.');
+    lout = (dot == std::string::npos ? out : out.substr(0, dot)) + "_labels" +
+           (dot == std::string::npos ? ".nrrd" : out.substr(dot));
+  }
+  // Every output's folder and name checked before the volume is generated, so that a bad label
+  // path cannot leave a complete intensity volume behind (or fail after minutes of work).
+  OutputFiles outputs;
+  const auto files = [&](const std::string& p) {
+    std::vector<std::string> f = nrrd_output_files(p, o.gzip);
+    return std::vector<std::string>(f.begin() + 1, f.end());
+  };
+  outputs.add(out, files(out));
+  if (labelled) outputs.add(lout, files(lout));
+  std::uint64_t bytes = 0;
+  try {
+    bytes = generated_bytes(o.kind, dims);
+  } catch (const InputError& e) {
+    throw InputError("--dims", e.reason());  // the kind is known: the dims are what is wrong
+  }
+  check_fits_in_memory(bytes, "--dims", o.kind + " " + o.dims);
   Timer t;
   GeneratedVolume g = generate_volume(o.kind, dims, o.seed);
-  write_nrrd(out, g.intensity, o.gzip);
+  outputs.write(out, [&](const std::string& p) { write_nrrd(p, g.intensity, o.gzip); });
+  if (labelled) outputs.write(lout, [&](const std::string& p) { write_nrrd(p, g.labels, o.gzip); });
   std::printf("wrote %s (%dx%dx%d %s) in %.1f s\n", out.c_str(), dims.x, dims.y, dims.z,
               to_string(g.intensity.type()), t.ms() / 1000.0);
-  if (!g.labels.empty()) {
-    std::string lout = o.labels_out;
-    if (lout.empty()) {
-      const auto dot = out.rfind('.');
-      lout = (dot == std::string::npos ? out : out.substr(0, dot)) + "_labels" +
-             (dot == std::string::npos ? ".nrrd" : out.substr(dot));
-    }
-    write_nrrd(lout, g.labels, o.gzip);
-    std::printf("wrote %s (%u labels)\n", lout.c_str(), g.label_count);
-  }
+  if (labelled) std::printf("wrote %s (%u labels)\n", lout.c_str(), g.label_count);
   return 0;
 }
 

@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include "apps/commands.h"
+#include "apps/scene_loader.h"
 #include "cache/formats/ingest.h"
 #include "core/error.h"
 
@@ -99,6 +100,9 @@ bool paths_overlap(const std::string& a, const std::string& b) {
 }
 
 int run_ingest(const IngestCmdOptions& o) {
+  // An empty name would resolve to the current folder (and hold the input): refused, not tried.
+  if (o.in.empty()) throw InputError("IN", "the input name is empty");
+  if (o.out.empty()) throw InputError("OUT", "the output name is empty");
   for (const std::string& in : {o.in, o.labels}) {
     if (!in.empty() && paths_overlap(in, o.out)) {
       throw InputError(o.out, "is the input " + in + " (or holds it, or lies inside it); choose another OUT");
@@ -115,6 +119,7 @@ int run_ingest(const IngestCmdOptions& o) {
   }
   io.labels = o.labels;
   io.force = o.force;
+  io.max_memory = in_memory_limit();
   auto progress = std::make_shared<Progress>();
   io.progress = [progress](std::uint64_t done, std::uint64_t total) { progress->update(done, total); };
   IngestResult r;

@@ -8,6 +8,31 @@
 #include "apps/commands.h"
 #include "core/error.h"
 
+namespace {
+
+// The error line as printed: control bytes (from a corrupt header, a file name, an option value) are
+// escaped as \xNN, so the message stays one line and cannot drive the terminal.
+std::string printable(const std::string& s) {
+  std::string out;
+  for (const char c : s) {
+    const auto u = static_cast<unsigned char>(c);
+    if (u < 0x20 || u == 0x7f) {
+      char buf[8];
+      std::snprintf(buf, sizeof buf, "\\x%02x", u);
+      out += buf;
+    } else {
+      out += c;
+    }
+  }
+  return out;
+}
+
+void print_error(const char* kind, const std::string& what) {
+  std::fprintf(stderr, "sparseleap: %s%s\n", kind, printable(what).c_str());
+}
+
+}  // namespace
+
 int main(int argc, char** argv) {
   CLI::App app{"sparseleap: out-of-core volume renderer with SparseLeap empty-space skipping"};
   app.require_subcommand(1);
@@ -24,6 +49,13 @@ int main(int argc, char** argv) {
   add(sl::app::add_view_command);
   add(sl::app::add_ingest_command);
 
+  // CLI11 takes an unknown command for a stray argument ("A subcommand is required"): name it.
+  bool known = argc < 2 || argv[1][0] == '-';
+  for (const auto& entry : runners) known = known || entry.first->check_name(argv[1]);
+  if (!known) {
+    print_error("", std::string("unknown command '") + argv[1] + "' (expected render, gen, info, bench, view or ingest)");
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -31,7 +63,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForAllHelp& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::fprintf(stderr, "sparseleap: %s\n", e.what());
+    print_error("", e.what());
     return 2;
   }
   try {
@@ -39,13 +71,13 @@ int main(int argc, char** argv) {
       if (sub->parsed()) return run();
     }
   } catch (const sl::InputError& e) {
-    std::fprintf(stderr, "sparseleap: error: %s\n", e.what());
+    print_error("error: ", e.what());
     return 1;
   } catch (const std::bad_alloc&) {
-    std::fprintf(stderr, "sparseleap: error: out of memory\n");
+    print_error("error: ", "out of memory");
     return 1;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "sparseleap: internal error: %s\n", e.what());
+    print_error("internal error: ", e.what());
     return 3;
   }
   return 0;

@@ -5,6 +5,7 @@
 #include <memory>
 
 #include "apps/commands.h"
+#include "apps/outputs.h"
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
 #include "core/atomic_file.h"
@@ -28,8 +29,11 @@ struct RenderCommandOptions {
 int run_render(const RenderCommandOptions& o) {
   const RenderOptions& ro = o.render;
   const CheckedOptions checked = check_render_options(ro);
-  check_output_prefix(o.out);
-  if (!o.stats_json.empty()) check_output_prefix(o.stats_json);
+  const std::string png = output_with_extension(o.out, ".png"), exr = output_with_extension(o.out, ".exr");
+  OutputFiles outputs;
+  outputs.add(png);
+  outputs.add(exr);
+  if (!o.stats_json.empty()) outputs.add(o.stats_json);
   if (o.frames < 1 || o.frames > 100000) throw InputError("--frames", "must be between 1 and 100000");
   const ThreadLimit threads(ro.threads);
 
@@ -53,12 +57,13 @@ int run_render(const RenderCommandOptions& o) {
     }
   }
   if (progress) std::fprintf(stderr, "\r%70s\r", "");
-  write_png(o.out + ".png", frame.image);
-  write_exr(o.out + ".exr", frame.image);
-  if (!o.stats_json.empty()) write_file_atomic(o.stats_json, stats_to_json(frame.stats) + "\n");
+  outputs.write(png, [&](const std::string& p) { write_png(p, frame.image); });
+  outputs.write(exr, [&](const std::string& p) { write_exr(p, frame.image); });
+  if (!o.stats_json.empty()) {
+    outputs.write(o.stats_json, [&](const std::string& p) { write_file_atomic(p, stats_to_json(frame.stats) + "\n"); });
+  }
   const std::string where = scene.out_of_core() ? " (" + scene.name + ", out of core)" : "";
-  std::printf("%s%s -> %s.png, %s.exr\n", stats_summary(frame.stats).c_str(), where.c_str(), o.out.c_str(),
-              o.out.c_str());
+  std::printf("%s%s -> %s, %s\n", stats_summary(frame.stats).c_str(), where.c_str(), png.c_str(), exr.c_str());
   if (o.strict && renderer.out_of_core() && renderer.out_of_core()->failed_bricks() > 0) {
     std::fprintf(stderr, "sparseleap: error: %zu bricks failed to load (--strict)\n",
                  renderer.out_of_core()->failed_bricks());

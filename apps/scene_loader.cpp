@@ -17,7 +17,12 @@ namespace sl::app {
 
 namespace {
 
-// "builtin:KIND[:XxYxZ[:SEED]]": a generated data set held in memory (no file).
+std::string dims_text(const VolumeDesc& d) {
+  return std::to_string(d.dims.x) + "x" + std::to_string(d.dims.y) + "x" + std::to_string(d.dims.z) + " " +
+         to_string(d.type);
+}
+
+// "builtin:KIND[:XxYxZ[:SEED]]": a generated data set held in memory (no file). Errors name the spec.
 GeneratedVolume load_builtin(const std::string& spec) {
   static const std::regex re("^builtin:([a-z]+)(?::([0-9]{1,5})x([0-9]{1,5})x([0-9]{1,5}))?(?::([0-9]{1,9}))?$");
   std::smatch m;
@@ -26,20 +31,28 @@ GeneratedVolume load_builtin(const std::string& spec) {
   }
   const ivec3 dims = m[2].matched ? ivec3(std::stoi(m[2]), std::stoi(m[3]), std::stoi(m[4])) : ivec3(kBuiltinSize);
   const std::uint32_t seed = m[5].matched ? std::uint32_t(std::stoul(m[5])) : 1u;
-  return generate_volume(m[1], dims, seed);
+  try {
+    check_fits_in_memory(generated_bytes(m[1], dims), spec, "the generated volume",
+                         "; try procedural:neurites:XxYxZ, which streams");
+    return generate_volume(m[1], dims, seed);
+  } catch (const InputError& e) {
+    if (e.file() != "gen") throw;
+    throw InputError(spec, e.reason());
+  }
 }
 
-// A volume file (NRRD, NIfTI-1, TIFF stack), or level 0 of an OME-Zarr store read whole (in core). A store bigger than half
-// of this machine's memory is refused with the hint to stream it (out of core) instead.
+// A volume file (NRRD, NIfTI-1, TIFF stack), or level 0 of an OME-Zarr store read whole (in core),
+// refused from its header when it would not fit in memory, with the hint to stream it instead.
 Volume read_volume_file(const std::string& path, bool store_labels = false) {
-  if (!zarr::is_zarr_path(path)) return sl::read_volume_file(path);
+  if (!zarr::is_zarr_path(path)) {
+    const VolumeDesc d = read_volume_file_desc(path);
+    check_fits_in_memory(d.byte_size(), path, dims_text(d),
+                         "; convert it with `sparseleap ingest` and render the store out of core (--cache-mb)");
+    return sl::read_volume_file(path);
+  }
   const zarr::StoreInfo info = zarr::open_store(path);
   const VolumeDesc& d = store_labels && info.labels ? info.labels->desc : info.image.desc;
-  const double phys = double(::sysconf(_SC_PHYS_PAGES)) * double(::sysconf(_SC_PAGESIZE));
-  if (phys > 0.0 && double(d.byte_size()) > 0.5 * phys) {
-    throw InputError(path, "level 0 holds " + std::to_string(d.byte_size() >> 20) +
-                               " MiB, more than half of this machine's memory; render it out of core with --cache-mb");
-  }
+  check_fits_in_memory(d.byte_size(), path, "level 0 (" + dims_text(d) + ")", "; render it out of core with --cache-mb");
   return read_zarr_volume(path, store_labels);
 }
 
@@ -98,6 +111,21 @@ LoadedScene load_scene(const SceneOptions& o) {
 }
 
 }  // namespace
+
+std::uint64_t in_memory_limit() {
+  const long pages = ::sysconf(_SC_PHYS_PAGES), page = ::sysconf(_SC_PAGESIZE);
+  return pages > 0 && page > 0 ? std::uint64_t(pages) * std::uint64_t(page) / 2 : 0;
+}
+
+void check_fits_in_memory(std::uint64_t bytes, const std::string& who, const std::string& what,
+                          const std::string& hint) {
+  const std::uint64_t limit = in_memory_limit();
+  if (limit > 0 && bytes > limit) {
+    throw InputError(who, what + " needs " + std::to_string((bytes + (1u << 20) - 1) >> 20) +
+                              " MiB in memory, more than half of this machine's " + std::to_string((2 * limit) >> 20) +
+                              " MiB" + hint);
+  }
+}
 
 SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
   SourceScene s;

@@ -41,6 +41,13 @@ struct SourceScene {
 };
 SourceScene load_source_scene(const SceneOptions& o, bool out_of_core);
 
+// Half of this machine's physical memory: what one input may take (0 when unknown).
+std::uint64_t in_memory_limit();
+// Refuses, before any allocation, data that would take more than half of this machine's memory:
+// InputError(who, "WHAT needs N MiB in memory, more than half of this machine's M MiB" + hint).
+void check_fits_in_memory(std::uint64_t bytes, const std::string& who, const std::string& what,
+                          const std::string& hint = {});
+
 // Built-in data set: neurites, generated in memory (no file needed).
 constexpr int kBuiltinSize = 256;
 

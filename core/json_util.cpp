@@ -3,22 +3,44 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
-#include <sstream>
 
 #include "core/error.h"
 
 namespace sl {
 
+std::string json_too_large(std::uintmax_t bytes) {
+  if (bytes <= kMaxJsonBytes) return {};
+  return "is " + std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB; JSON files are read and parsed whole in memory, at most " +
+         std::to_string(kMaxJsonBytes >> 20) + " MiB";
+}
+
+bool read_json_bytes(std::istream& in, std::string& out) {
+  out.clear();
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    out.append(buf, std::size_t(in.gcount()));
+    if (out.size() > kMaxJsonBytes) return false;
+  }
+  return true;
+}
+
 std::string read_file_text(const std::string& path) {
   // An ifstream opens a directory without complaint and then reads nothing ("malformed JSON").
   std::error_code ec;
   if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec) {
+    if (const std::string why = json_too_large(size); !why.empty()) throw InputError(path, why);
+  }
   std::ifstream in(path, std::ios::binary);
   if (!in) throw InputError(path, "cannot open file");
-  std::stringstream ss;
-  ss << in.rdbuf();
+  std::string text;
+  if (!read_json_bytes(in, text)) {
+    throw InputError(path, "holds more than " + std::to_string(kMaxJsonBytes >> 20) +
+                               " MiB; JSON files are read and parsed whole in memory, at most that");
+  }
   if (in.bad()) throw InputError(path, "read error");
-  return ss.str();
+  return text;
 }
 
 nlohmann::json parse_json(const std::string& text, const std::string& origin) {

@@ -2,13 +2,24 @@
 #pragma once
 
 #include <nlohmann/json.hpp>
+#include <cstdint>
+#include <istream>
 #include <string>
 
 #include "core/math.h"
 
 namespace sl {
 
-// Whole file as text; InputError(path, ...) when it cannot be read.
+// Largest JSON file read: it is parsed whole in memory (the DOM takes several times the text), and no
+// transfer function, camera, path or Zarr metadata comes near it; bigger is refused before reading.
+constexpr std::uintmax_t kMaxJsonBytes = std::uintmax_t(64) << 20;
+// "is N MiB; JSON files are read ... at most 64 MiB" when `bytes` exceeds kMaxJsonBytes, else empty.
+std::string json_too_large(std::uintmax_t bytes);
+// Reads all of `in` into `out` unless it holds more than kMaxJsonBytes (a huge file, or a device such
+// as /dev/zero, whose size no stat tells): then false, having read no more than kMaxJsonBytes + 1.
+bool read_json_bytes(std::istream& in, std::string& out);
+
+// Whole file as text; InputError(path, ...) when it cannot be read or exceeds kMaxJsonBytes.
 std::string read_file_text(const std::string& path);
 // Parses JSON; InputError(origin, "malformed JSON: ...") on syntax errors.
 nlohmann::json parse_json(const std::string& text, const std::string& origin);

@@ -281,6 +281,11 @@ IngestResult ingest(const std::string& in, const std::string& out, const IngestO
   while (dst.has_filename() == false && dst.has_parent_path() && dst != dst.root_path()) dst = dst.parent_path();
   std::error_code ec;
   if (fs::exists(dst, ec) && !o.force) throw InputError(out, "exists; pass --force to replace it");
+  // --force replaces a store, which is a folder: a file, a device or a FIFO there is not one (renaming
+  // over /dev/full would destroy the device).
+  if (const auto t = fs::symlink_status(dst, ec).type(); t != fs::file_type::not_found && t != fs::file_type::directory) {
+    throw InputError(out, "exists and is not a folder (a store is one); not replaced");
+  }
   const fs::path parent = dst.has_parent_path() ? dst.parent_path() : fs::path(".");
   if (!fs::is_directory(parent, ec)) throw InputError(out, "directory '" + parent.string() + "' does not exist");
   // Hidden and suffixed: a store being written never looks like a finished one.
@@ -297,6 +302,11 @@ IngestResult ingest(const std::string& in, const std::string& out, const IngestO
   r.desc = desc;
   r.levels = ingest_levels(desc.dims, o.chunk);
   r.memory_bound = memory_bound(desc, labels ? std::optional(labels->desc().type) : std::nullopt, o.chunk);
+  if (o.max_memory && r.memory_bound > o.max_memory) {
+    const auto mib = [](std::uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20) + " MiB"; };
+    throw InputError(in, "ingest would need " + mib(r.memory_bound) + " for its layers of chunk x X x Y voxels, more than " +
+                             mib(o.max_memory) + " (half of this machine's memory); choose a smaller --chunk");
+  }
   try {
     zarr::WriterOptions wo;
     wo.chunk = o.chunk;

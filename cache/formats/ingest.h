@@ -34,6 +34,8 @@ struct IngestOptions {
   zarr::Compressor compressor = zarr::compressor_from_name("blosc-zstd", -1);
   std::string labels;                 // optional label volume (same dims, integer type)
   bool force = false;                 // replace an existing OUT
+  // Refused up front (naming IN and the size) when memory_bound() exceeds this; 0: no limit.
+  std::uint64_t max_memory = 0;
   // Called after every input slab with input bytes read so far and in total (intensity + labels).
   std::function<void(std::uint64_t done, std::uint64_t total)> progress;
 };

@@ -224,6 +224,12 @@ void write_payload(AtomicFile& out, const Volume& v, bool gzip) {
 
 }  // namespace
 
+std::vector<std::string> nrrd_output_files(const std::string& path, bool gzip) {
+  const fs::path out(path);
+  if (nrrd_detail::lower(out.extension().string()) != ".nhdr") return {path};
+  return {path, (out.parent_path() / (out.stem().string() + (gzip ? ".raw.gz" : ".raw"))).string()};
+}
+
 void write_nrrd(const std::string& path, const Volume& v, bool gzip) {
   const fs::path out(path);
   const std::string ext = nrrd_detail::lower(out.extension().string());
@@ -233,7 +239,8 @@ void write_nrrd(const std::string& path, const Volume& v, bool gzip) {
   if (v.empty()) throw InputError(path, "cannot write an empty volume");
   const VolumeDesc& d = v.desc();
   const bool detached = ext == ".nhdr";
-  const std::string data_name = out.stem().string() + (gzip ? ".raw.gz" : ".raw");
+  const std::vector<std::string> files = nrrd_output_files(path, gzip);
+  const std::string data_name = detached ? fs::path(files[1]).filename().string() : std::string();
 
   std::string header = "NRRD0004\n";
   header += "# Complete NRRD file format specification at:\n";
@@ -260,7 +267,7 @@ void write_nrrd(const std::string& path, const Volume& v, bool gzip) {
     head.commit();
     return;
   }
-  AtomicFile data(out.has_parent_path() ? out.parent_path() / data_name : fs::path(data_name), path);
+  AtomicFile data(files[1], path);
   write_payload(data, v, gzip);
   data.close();
   head.close();

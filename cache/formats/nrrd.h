@@ -13,6 +13,7 @@
 #pragma once
 
 #include <string>
+#include <vector>
 
 #include "core/volume.h"
 
@@ -31,5 +32,8 @@ VolumeDesc read_nrrd_header(const std::string& path);
 // renamed only once complete, so a failure never leaves a file that looks finished. Throws InputError
 // naming `path` when the name has another extension or a file cannot be written.
 void write_nrrd(const std::string& path, const Volume& v, bool gzip = false);
+
+// The files write_nrrd(path, .., gzip) writes: `path`, then for a detached header its data file.
+std::vector<std::string> nrrd_output_files(const std::string& path, bool gzip);
 
 }  // namespace sl

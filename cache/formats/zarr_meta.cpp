@@ -4,9 +4,9 @@
 #include <fstream>
 #include <limits>
 #include <nlohmann/json.hpp>
-#include <sstream>
 
 #include "core/error.h"
+#include "core/json_util.h"
 
 namespace sl::zarr {
 namespace {
@@ -18,12 +18,21 @@ using json = nlohmann::json;
 constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
 
 json read_json(const fs::path& file, const std::string& store, const std::string& where) {
+  std::error_code ec;
+  if (const std::uintmax_t size = fs::file_size(file, ec); !ec) {
+    if (const std::string why = json_too_large(size); !why.empty()) {
+      throw InputError(store, where + "'" + file.filename().string() + "' " + why);
+    }
+  }
   std::ifstream f(file, std::ios::binary);
   if (!f) throw InputError(store, where + "cannot read '" + file.filename().string() + "'");
-  std::stringstream ss;
-  ss << f.rdbuf();
+  std::string text;
+  if (!read_json_bytes(f, text)) {
+    throw InputError(store, where + "'" + file.filename().string() + "' holds more than " +
+                                std::to_string(kMaxJsonBytes >> 20) + " MiB of JSON");
+  }
   try {
-    return json::parse(ss.str());
+    return json::parse(text);
   } catch (const json::exception& e) {
     throw InputError(store, where + "malformed JSON in '" + file.filename().string() + "' (" + e.what() + ")");
   }

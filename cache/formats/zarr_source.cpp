@@ -11,20 +11,43 @@
 namespace sl {
 namespace {
 
-// A whole level of a reader, read chunk row by chunk row in parallel.
-Volume read_level(const zarr::ArrayReader& r, int level, const std::string& origin) {
+// A whole level of a reader, read chunk row by chunk row in parallel. With `skip_unreadable`, chunk
+// by chunk instead, and a chunk that cannot be read is left 0 (see max_label()).
+Volume read_level(const zarr::ArrayReader& r, int level, const std::string& origin, bool skip_unreadable = false) {
   const zarr::Level& lv = r.multiscale().levels[std::size_t(level)];
   VolumeDesc d;
   d.dims = lv.dims;
   d.type = lv.meta.type;
   d.spacing = r.multiscale().desc.spacing * float(1 << level);
   Volume v(d, origin);
-  const int cz = lv.meta.chunk_dims().z;
-  const int rows = (d.dims.z + cz - 1) / cz;
-  const std::size_t plane = std::size_t(d.dims.x) * std::size_t(d.dims.y) * std::size_t(voxel_size(d.type));
+  const ivec3 c = lv.meta.chunk_dims();
+  const int rows = (d.dims.z + c.z - 1) / c.z;
+  const std::size_t elem = std::size_t(voxel_size(d.type));
+  const std::size_t plane = std::size_t(d.dims.x) * std::size_t(d.dims.y) * elem;
   parallel_for(0, rows, [&](int i) {
-    const int z0 = i * cz, nz = std::min(cz, d.dims.z - z0);
-    r.read_box(level, ivec3(0, 0, z0), ivec3(d.dims.x, d.dims.y, nz), v.data() + std::size_t(z0) * plane);
+    const int z0 = i * c.z, nz = std::min(c.z, d.dims.z - z0);
+    if (!skip_unreadable) {
+      r.read_box(level, ivec3(0, 0, z0), ivec3(d.dims.x, d.dims.y, nz), v.data() + std::size_t(z0) * plane);
+      return;
+    }
+    std::vector<std::byte> box(std::size_t(c.x) * std::size_t(c.y) * std::size_t(c.z) * elem);
+    for (int y0 = 0; y0 < d.dims.y; y0 += c.y) {
+      for (int x0 = 0; x0 < d.dims.x; x0 += c.x) {
+        const ivec3 n(std::min(c.x, d.dims.x - x0), std::min(c.y, d.dims.y - y0), nz);
+        try {
+          r.read_box(level, ivec3(x0, y0, z0), n, box.data());
+        } catch (const InputError&) {
+          continue;
+        }
+        for (int z = 0; z < n.z; ++z) {
+          for (int y = 0; y < n.y; ++y) {
+            std::memcpy(v.data() + v.view().index(x0, y0 + y, z0 + z) * elem,
+                        box.data() + (std::size_t(z) * std::size_t(n.y) + std::size_t(y)) * std::size_t(n.x) * elem,
+                        std::size_t(n.x) * elem);
+          }
+        }
+      }
+    }
   });
   return v;
 }
@@ -143,7 +166,7 @@ std::uint32_t ZarrVolumeSource::max_label() const {
   for (int l = 0; l < labels_->levels(); ++l) {
     const zarr::Level& lv = labels_->multiscale().levels[std::size_t(l)];
     if (VolumeDesc{lv.dims, vec3(1.0f), lv.meta.type}.byte_size() <= (std::uint64_t(256) << 20)) {
-      return sl::max_label(read_level(*labels_, l, name_));
+      return sl::max_label(read_level(*labels_, l, name_, true));
     }
   }
   return derived_labels_.empty() ? 0 : sl::max_label(derived_labels_.front());

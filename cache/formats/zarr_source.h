@@ -41,6 +41,8 @@ class ZarrVolumeSource final : public VolumeSource {
   const zarr::ChunkCache& chunk_cache() const { return *cache_; }
   // Largest label id: the store's "sparseleap" attribute when `ingest` wrote it; otherwise a scan of
   // the finest stored label level of at most 256 MiB (exact when that is level 0). 0 without labels.
+  // A chunk the scan cannot read counts as empty: it takes the out-of-core fault path when a brick
+  // needs it (reported there, rendered as missing), instead of stopping the render before it starts.
   std::uint32_t max_label() const;
   // Value range of the finest stored level of at most 64 MiB (for a default transfer function; the
   // coarse levels' means narrow the range a little).

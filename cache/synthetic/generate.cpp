@@ -369,11 +369,26 @@ GeneratedVolume sphere(const ivec3& dims) {
 
 }  // namespace
 
-GeneratedVolume generate_volume(const std::string& kind, ivec3 dims, std::uint32_t seed) {
+bool generated_kind_has_labels(const std::string& kind) {
   const bool labelled = kind == "neurites" || kind == "blobs" || kind == "organs";
   if (!labelled && kind != "sphere") {
     throw InputError("gen", "unknown kind '" + kind + "' (expected neurites, blobs, organs or sphere)");
   }
+  return labelled;
+}
+
+std::uint64_t generated_bytes(const std::string& kind, ivec3 dims) {
+  const bool labelled = generated_kind_has_labels(kind);
+  const auto bytes = [&](VoxelType t) {
+    const VolumeDesc d{dims, vec3(1.0f), t};
+    validate_desc(d, "gen", std::numeric_limits<std::uint64_t>::max());
+    return d.byte_size();
+  };
+  return labelled ? bytes(VoxelType::U8) + bytes(VoxelType::U16) : bytes(VoxelType::F32);
+}
+
+GeneratedVolume generate_volume(const std::string& kind, ivec3 dims, std::uint32_t seed) {
+  const bool labelled = generated_kind_has_labels(kind);
   // Check before any work; labelled kinds need room for the u16 labels too (the larger volume).
   validate_desc(VolumeDesc{dims, vec3(1.0f), labelled ? VoxelType::U16 : VoxelType::F32}, "gen");
   if (kind == "neurites") return neurite_volume(dims, seed);

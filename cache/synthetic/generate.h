@@ -36,4 +36,11 @@ struct GeneratedVolume {
 // Throws InputError("gen", ...) for an unknown kind or invalid dims (validate_desc).
 GeneratedVolume generate_volume(const std::string& kind, ivec3 dims, std::uint32_t seed = 1);
 
+// Whether `kind` comes with labels; InputError("gen", ...) for an unknown kind.
+bool generated_kind_has_labels(const std::string& kind);
+// The bytes generate_volume(kind, dims) holds (intensity and labels), computed without generating,
+// so callers can refuse what does not fit in memory first; InputError("gen", ...) for an unknown
+// kind or non-positive dims.
+std::uint64_t generated_bytes(const std::string& kind, ivec3 dims);
+
 }  // namespace sl

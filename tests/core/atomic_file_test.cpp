@@ -1,7 +1,8 @@
-// AtomicFile: a file is complete under its name or absent; nothing but regular files is replaced;
-// the temporary never survives a failure.
+// AtomicFile: a file is complete under its name or absent; nothing but regular files is replaced
+// (devices and FIFOs are written in place); the temporary never survives a failure.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
@@ -96,14 +97,39 @@ TEST(AtomicFile, RefusesToReplaceADirectoryAndLeavesIt) {
   EXPECT_EQ(listing(dir), std::set<std::string>{"taken"});
 }
 
-TEST(AtomicFile, RefusesDevNullAndAFifo) {
-  expect_input_error([] { write_file_atomic("/dev/null", "x"); }, "/dev/null", "character device");
+// A character device or FIFO is a stream: written in place, never replaced, its write errors named.
+TEST(AtomicFile, WritesDevNullAndAFifoInPlaceAndNamesTheirErrors) {
+  write_file_atomic("/dev/null", "x");
+  EXPECT_EQ(fs::status("/dev/null").type(), fs::file_type::character);
+  expect_input_error([] { write_file_atomic("/dev/full", "x"); }, "/dev/full", "No space left on device");
+  EXPECT_EQ(fs::status("/dev/full").type(), fs::file_type::character);
   const fs::path dir = test::scratch_dir();
   const fs::path fifo = dir / "pipe";
   ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
-  expect_input_error([&] { write_file_atomic(fifo.string(), "x"); }, fifo.string(), "FIFO");
+  // Nobody reads it: an error at once, not a hang.
+  expect_input_error([&] { write_file_atomic(fifo.string(), "x"); }, fifo.string(), "FIFO without a reader");
+  const int reader = ::open(fifo.c_str(), O_RDONLY | O_NONBLOCK);
+  ASSERT_GE(reader, 0);
+  write_file_atomic(fifo.string(), "through the pipe");
+  char buf[64] = {};
+  EXPECT_EQ(::read(reader, buf, sizeof buf), 16);
+  EXPECT_EQ(std::string(buf), "through the pipe");
+  ::close(reader);
   EXPECT_EQ(fs::status(fifo).type(), fs::file_type::fifo);
   EXPECT_EQ(listing(dir), std::set<std::string>{"pipe"});
+}
+
+TEST(AtomicFile, CheckOutputFileRefusesWhatTheWriterWould) {
+  const fs::path dir = test::scratch_dir();
+  fs::create_directory(dir / "taken");
+  expect_input_error([&] { check_output_file(dir / "taken"); }, (dir / "taken").string(), "it is a directory");
+  const std::string missing = (dir / "no" / "f.txt").string();
+  expect_input_error([&] { check_output_file(missing); }, missing, "folder '" + (dir / "no").string() + "' does not exist");
+  EXPECT_NO_THROW(check_output_file(dir / "new.txt"));
+  EXPECT_NO_THROW(check_output_file("/dev/null"));
+  EXPECT_TRUE(is_stream_file("/dev/null"));
+  EXPECT_FALSE(is_stream_file(dir / "new.txt"));
+  EXPECT_EQ(listing(dir), std::set<std::string>{"taken"});
 }
 
 TEST(AtomicFile, ADirectoryAppearingBeforeCommitIsRefusedToo) {
