@@ -76,9 +76,19 @@ void read_page(TIFF* t, const PageFormat& f, std::byte* dst, const std::string& 
     std::uint32_t tw = 0, th = 0;
     TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
     TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
-    if (tw == 0 || th == 0) fail("bad tile size");
-    std::vector<std::byte> tile(std::size_t(TIFFTileSize(t)));
-    if (tile.size() < std::size_t(tw) * th * elem) fail("bad tile size");
+    // Checked before the tile buffer is allocated: a corrupt tile width (a 386-byte file found by
+    // tests/fuzz claimed 268435456) would make it gigabytes for a small page. A tile covers at most
+    // the page rounded up to libtiff's 16-pixel tile grid, or 4096 pixels (writers use 256-1024
+    // whatever the page size); and a 2-D grayscale tile is exactly tw x th samples (no tile depth).
+    const auto plausible = [](std::uint32_t tile, int page) {
+      return tile > 0 && tile <= std::max<std::uint32_t>(4096, (std::uint32_t(page) + 15) / 16 * 16);
+    };
+    if (!plausible(tw, f.width) || !plausible(th, f.height) ||
+        TIFFTileSize64(t) != std::uint64_t(tw) * th * elem) {
+      fail(("bad tile size " + std::to_string(tw) + "x" + std::to_string(th) + " for a " + std::to_string(f.width) +
+            "x" + std::to_string(f.height) + " page").c_str());
+    }
+    std::vector<std::byte> tile(std::size_t(tw) * th * elem);
     for (std::uint32_t y0 = 0; y0 < std::uint32_t(f.height); y0 += th) {
       for (std::uint32_t x0 = 0; x0 < std::uint32_t(f.width); x0 += tw) {
         if (TIFFReadTile(t, tile.data(), x0, y0, 0, 0) < 0) fail("cannot read a tile");
