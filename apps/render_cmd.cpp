@@ -29,7 +29,7 @@ std::string pressure_message(const CacheStats& c, int frames) {
   char buf[256];
   std::string why;
   if (c.working_set_mb > 0) {
-    std::snprintf(buf, sizeof buf, "the view needs about %.0f MB at level %d; the cache has %.0f MB", c.working_set_mb,
+    std::snprintf(buf, sizeof buf, "the view needs about %.1f MB at level %d; the cache has %.1f MB", c.working_set_mb,
                   c.working_set_level, c.cache_mb);
     why = buf;
   } else {

@@ -469,8 +469,10 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   hits_last_ = c.hits;
   // Converged: nothing in flight, and the misses are either gone or the same ones as last frame with
   // nothing left to do about them (bricks that do not fit at a pinned level, or failed).
-  const bool settled = c.misses == 0 || (!resolved.changed && c.loads == 0 && c.misses == misses_last_ &&
-                                         pressure_ == pressure_before);
+  // A coarsened view is settled only once refining is no longer worth a try.
+  const bool may_refine = settings_.lod < 0 && pressure_ > 0 && pressure_ - 1 > overflow_at_;
+  const bool settled = !may_refine && (c.misses == 0 || (!resolved.changed && c.loads == 0 &&
+                                                         c.misses == misses_last_ && pressure_ == pressure_before));
   misses_last_ = c.misses;
   converged_ = settled && c.pending == 0 && metadata_pending_.empty();
   if (!converged_) {
