@@ -167,8 +167,11 @@ void OutOfCoreRenderer::compute_metadata(const LoadedBrick& b, const Cull& cull)
 void OutOfCoreRenderer::upload(const Cull& cull) {
   LoaderBatch batch = loader_.collect(settings_.upload_budget);
   for (const BrickFailure& f : batch.failures) {
-    // Reported once (the loader never retries a failed brick); rendered as missing from now on.
-    std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
+    // Reported once per cause — one corrupt chunk under many bricks is one warning, not one per
+    // brick (issue 15); the loader never retries a failed brick; rendered as missing from now on.
+    if (reported_causes_.insert(f.cause).second) {
+      std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
+    }
     metadata_pending_.erase(f.id.bits);
     map(f.id, PageEntry::empty());
     // Its region's occupancy can never be known: call it NON_EMPTY (conservative; the data read as

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <unordered_map>
+#include <string>
 #include <unordered_set>
 #include <vector>
 
@@ -117,6 +118,7 @@ class OutOfCoreRenderer {
   std::unordered_map<std::uint64_t, BlockMetadata> metadata_;  // key: BrickId::pack(level, culling block)
   std::unordered_set<std::uint64_t> metadata_pending_;         // bricks requested for their metadata
   std::vector<BrickId> empty_entries_;                         // page entries set Empty by culling
+  std::unordered_set<std::string> reported_causes_;            // load failures reported so far
   std::uint64_t cull_key_ = 0;
   bool cull_valid_ = false;
   std::uint32_t frame_ = 0;
