@@ -127,8 +127,8 @@ void write_reports(BenchRun& b, const std::string& csv, const std::string& json)
 }
 
 // Out of core: per method, a fresh cache renders every view of the path until it converges (no
-// misses, nothing pending) or --max-frames-per-view; reports frames to convergence per view, loads,
-// tree and page-table size.
+// nothing left to load or resolve) or --max-frames-per-view; reports frames to convergence per view,
+// loads, completeness, tree and page-table size.
 int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
   const BenchOptions& o = b.o;
   const OutOfCoreSettings os = out_of_core_settings(o.render);
@@ -138,7 +138,7 @@ int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
   js["volume"] = b.scene.name;
   std::ostringstream csv;
   csv << "method,view,frame,total_ms,raycast_ms,lists_ms,loads,hits,misses,hit_rate,pending,resident_mb,"
-         "tree_nodes,page_table_kb,samples\n";
+         "tree_nodes,page_table_kb,samples,completeness,lod_coarsened,bricks_missing\n";
   for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
     const char* method = to_string(b.methods[mi]);
     b.rs.method = b.methods[mi];
@@ -165,7 +165,8 @@ int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
             << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.hits << ','
             << f.stats.cache.misses << ',' << hit_rate(f.stats) << ',' << f.stats.cache.pending << ','
             << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ',' << f.stats.cache.page_table_kb << ','
-            << f.stats.samples << '\n';
+            << f.stats.samples << ',' << f.stats.cache.completeness << ',' << f.stats.cache.lod_coarsened << ','
+            << f.stats.cache.bricks_missing << '\n';
         if (renderer->out_of_core()->converged()) break;
       }
       total_loads += loads;
@@ -180,7 +181,10 @@ int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
       jm["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"converged_frame_ms", f.stats.time_ms.total},
                              {"loads", loads}, {"resident_mb", f.stats.cache.resident_mb},
                              {"tree_nodes", f.stats.tree_nodes}, {"page_table_kb", f.stats.cache.page_table_kb},
-                             {"samples", f.stats.samples}, {"first_frame_hit_rate", first_hit_rate}});
+                             {"samples", f.stats.samples}, {"first_frame_hit_rate", first_hit_rate},
+                             {"completeness", f.stats.cache.completeness},
+                             {"lod_coarsened", f.stats.cache.lod_coarsened},
+                             {"bricks_missing", f.stats.cache.bricks_missing}});
     }
     const double per_frame = total_frames ? double(total_loads) / double(total_frames) : 0.0;
     jm["median_converged_frame_ms"] = percentile(conv_ms, 0.5);

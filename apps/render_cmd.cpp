@@ -24,6 +24,28 @@ struct RenderCommandOptions {
   bool strict = false;
 };
 
+// One line when the last frame stops short of complete or was coarsened for cache pressure, and why.
+std::string pressure_message(const CacheStats& c, int frames) {
+  if (!c.present || (c.completeness >= 1.0 && c.lod_coarsened <= 0.0)) return {};
+  char buf[256];
+  std::string why;
+  if (c.working_set_mb > 0) {
+    std::snprintf(buf, sizeof buf, "the view needs about %.1f MB at level %d; the cache has %.1f MB", c.working_set_mb,
+                  c.working_set_level, c.cache_mb);
+    why = buf;
+  } else {
+    std::snprintf(buf, sizeof buf, "bricks were still loading after %d frames (more --frames)", frames);
+    why = buf;
+  }
+  if (c.completeness < 1.0) {
+    std::snprintf(buf, sizeof buf, "incomplete (completeness %.3f, %llu bricks missing): ", c.completeness,
+                  (unsigned long long)c.bricks_missing);
+  } else {
+    std::snprintf(buf, sizeof buf, "%.1f%% of samples coarser than the pixel footprint asks: ", 100.0 * c.lod_coarsened);
+  }
+  return buf + why;
+}
+
 // Out of core the volume is read through the page table and brick cache, bricks stream in over the
 // frames (a progress line on a terminal); the last frame is written.
 int run_render(const RenderCommandOptions& o) {
@@ -67,6 +89,12 @@ int run_render(const RenderCommandOptions& o) {
   if (o.strict && renderer.out_of_core() && renderer.out_of_core()->failed_bricks() > 0) {
     std::fprintf(stderr, "sparseleap: error: %zu bricks failed to load (--strict)\n",
                  renderer.out_of_core()->failed_bricks());
+    return 1;
+  }
+  const std::string shortfall = pressure_message(frame.stats.cache, o.frames);
+  if (!shortfall.empty()) std::fprintf(stderr, "sparseleap: %s\n", shortfall.c_str());
+  if (o.strict && frame.stats.cache.present && frame.stats.cache.completeness < 1.0) {
+    std::fprintf(stderr, "sparseleap: error: the last frame is incomplete (--strict)\n");
     return 1;
   }
   return 0;

@@ -142,7 +142,7 @@ void BrickLoader::work() {
       // Reported once through collect(), remembered so the brick is never requested again.
       known_.erase(job.id);
       failed_.emplace(job.id, error);
-      new_failures_.push_back({job.id, source_->name() + ": " + to_string(job.id) + ": " + error});
+      new_failures_.push_back({job.id, source_->name() + ": " + to_string(job.id) + ": " + error, error});
     } else {
       done_.push_back({job.seq, std::move(brick)});
     }

@@ -32,6 +32,7 @@ struct LoadedBrick {
 struct BrickFailure {
   BrickId id;
   std::string reason;  // "<source name>: level 1 brick (2, 0, 3): <what the source said>"
+  std::string cause;   // what the source said: the same for every brick one fault (a chunk) covers
 };
 
 struct LoaderBatch {

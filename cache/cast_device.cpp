@@ -48,6 +48,7 @@ void cast_typed(const CastParams& p, const RayGenerator& gen, const Box3& vbox, 
   sampler.misses = vm.misses;
   sampler.frame = frame_number;
   sampler.has_labels = vm.has_labels;
+  sampler.shortfall = vm.shortfall;
   const RayCaster<VirtualSampler<T, L>> caster{p, sampler};
   cast_frame(caster, gen, vbox, skip, frame);
 }

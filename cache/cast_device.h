@@ -31,6 +31,7 @@
 #include "cache/brick_cache.h"
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
+#include "cache/virtual_sampler.h"
 #include "core/cast_pixel.h"
 #include "core/frame.h"
 
@@ -43,6 +44,7 @@ struct VirtualMemoryView {
   BrickCacheView cache;
   MissBufferView misses;
   bool has_labels = false;
+  SampleShortfall shortfall;  // completeness counters (host memory; null: not counted)
 };
 
 // Fixed once per renderer.

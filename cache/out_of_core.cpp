@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cmath>
 #include <cstring>
 #include <functional>
 
@@ -20,6 +21,21 @@ int log2_exact(int v) {
   int l = 0;
   while ((1 << l) < v) ++l;
   return l;
+}
+
+// What a frame looks at and how it samples: pressure measured for one view says nothing of another.
+std::uint64_t view_key(const Camera& c, const RenderSettings& s, std::uint64_t cull) {
+  std::uint64_t h = 1469598103934665603ull ^ cull;
+  auto mix = [&h](const void* p, std::size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (std::size_t i = 0; i < n; ++i) h = (h ^ b[i]) * 1099511628211ull;
+  };
+  const float f[] = {c.eye.x, c.eye.y, c.eye.z, c.center.x, c.center.y, c.center.z, c.up.x, c.up.y, c.up.z,
+                     c.fov_deg, c.height, s.step};
+  const int i[] = {int(c.projection), s.width, s.height};
+  mix(f, sizeof f);
+  mix(i, sizeof i);
+  return h;
 }
 
 }  // namespace
@@ -151,8 +167,11 @@ void OutOfCoreRenderer::compute_metadata(const LoadedBrick& b, const Cull& cull)
 void OutOfCoreRenderer::upload(const Cull& cull) {
   LoaderBatch batch = loader_.collect(settings_.upload_budget);
   for (const BrickFailure& f : batch.failures) {
-    // Reported once (the loader never retries a failed brick); rendered as missing from now on.
-    std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
+    // Reported once per cause — one corrupt chunk under many bricks is one warning, not one per
+    // brick (issue 15); the loader never retries a failed brick; rendered as missing from now on.
+    if (reported_causes_.insert(f.cause).second) {
+      std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
+    }
     metadata_pending_.erase(f.id.bits);
     map(f.id, PageEntry::empty());
     // Its region's occupancy can never be known: call it NON_EMPTY (conservative; the data read as
@@ -162,7 +181,9 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
   for (LoadedBrick& b : batch.bricks) {
     if (metadata_pending_.erase(b.id.bits)) compute_metadata(b, cull);
     if (!page_table_.get(b.id).is_resident()) {
-      if (auto a = cache_.allocate(b.id, frame_)) {
+      // Protects the bricks the last frame used: the view's working set is not evicted to make room
+      // for another brick of the same view (that was the thrash and the stall of issue 14).
+      if (auto a = cache_.allocate(b.id, frame_ - 1)) {
         if (a->evicted.valid()) map(a->evicted, PageEntry::unmapped());
         if (device_memory_) {
           // The device copies the brick (asynchronously); the host slot stays untouched (and, being
@@ -187,7 +208,8 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
         map(b.id, PageEntry::resident(a->slot));
         ++loads_this_frame_;
       }
-      // else: every slot is in use this frame; the brick is missed again and reloaded later.
+      // else: every slot holds a brick the last frame used; the brick is requested again when there
+      // is room (resolve_misses requests no more than room()).
     }
     loader_.recycle(std::move(b));
   }
@@ -202,9 +224,10 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
 // Paper §8.2: each missed brick means what the occupancy tree says of its region. Unknown → its
 // metadata (from cache, or by loading the brick), then cull and grow; known non-empty and not
 // resident → load; known empty → map it Empty. Unknown regions never load data for sampling alone.
-void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
+OutOfCoreRenderer::Resolved OutOfCoreRenderer::resolve_misses(const Cull& cull) {
   const std::vector<BrickId> ids = misses_.drain();
-  std::vector<BrickId> load;
+  Resolved res;
+  std::vector<BrickId> load, data;
   for (const BrickId id : ids) {
     if (loader_.failed(id)) continue;
     const std::uint32_t n = node_for_brick(id);
@@ -222,7 +245,7 @@ void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
       if (cached) {
         for (std::uint64_t key : keys) apply_metadata(key, metadata_.at(key), cull);
       } else if (metadata_pending_.insert(id.bits).second) {
-        load.push_back(id);
+        load.push_back(id);  // metadata loads are always made: culling needs them
       }
       continue;
     }
@@ -232,12 +255,45 @@ void OutOfCoreRenderer::resolve_misses(const Cull& cull) {
       if (!e.is_resident() && e.state() != PageEntry::State::Empty) {
         map(id, PageEntry::empty());
         empty_entries_.push_back(id);
+        res.changed = true;
       }
     } else if (!e.is_resident()) {
-      load.push_back(id);
+      data.push_back(id);
     }
   }
-  loader_.request(load);
+  // Data loads only as far as there is room: a brick loaded without a slot would be dropped and
+  // requested again every frame (loader work for nothing, and no progress).
+  res.loadable = data.size();
+  const std::size_t n = std::min(data.size(), room());
+  load.insert(load.end(), data.begin(), data.begin() + std::ptrdiff_t(n));
+  res.requested = loader_.request(load);
+  res.changed = res.changed || res.requested > 0;
+  return res;
+}
+
+std::size_t OutOfCoreRenderer::room() const {
+  // Slots neither used by the last cast nor filled this frame (those bricks are wanted now), less
+  // the loads already on their way.
+  const std::size_t taken = hits_last_ + loads_this_frame_ + loader_.pending();
+  return cache_.slot_count() > taken ? cache_.slot_count() - taken : 0;
+}
+
+void OutOfCoreRenderer::adapt_pressure(const Resolved& r) {
+  const std::size_t cap = cache_.slot_count();
+  const std::size_t need = hits_last_ + r.loadable;
+  if (need > cap && pressure_ == 0) need_footprint_ = std::max(need_footprint_, need);
+  if (settings_.lod >= 0) return;  // a pinned level is never coarsened (render reports the shortfall)
+  const int most = 4 * (layout_.levels - 1);
+  if (need > cap) {
+    overflow_at_ = std::max(overflow_at_, pressure_);
+    // Bricks on screen scale about with the square of the footprint: a quarter octave per factor
+    // 2^(1/2) of excess, at least one step.
+    const double excess = std::log2(double(need) / double(cap));
+    pressure_ = std::min(most, pressure_ + std::max(1, int(std::ceil(2.0 * excess))));
+  } else if (pressure_ > 0 && pressure_ - 1 > overflow_at_ && !r.changed && r.loadable == 0 &&
+             loader_.pending() == 0 && metadata_pending_.empty()) {
+    --pressure_;  // settled with room to spare for a try: refine one step
+  }
 }
 
 void OutOfCoreRenderer::recull(const Cull& cull) {
@@ -316,8 +372,16 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   loads_this_frame_ = 0;
   metadata_computed_this_frame_ = 0;
   if (device_memory_) device_->begin_frame();  // last frame's uploads have landed
+  const std::uint64_t vk = view_key(scene.camera, s, key);
+  if (vk != view_key_) {
+    view_key_ = vk;
+    overflow_at_ = -1;  // a new view may fit where the last did not
+    need_footprint_ = 0;
+  }
   upload(cull);
-  resolve_misses(cull);
+  const Resolved resolved = resolve_misses(cull);
+  const int pressure_before = pressure_;
+  adapt_pressure(resolved);
   tree_.propagate();
   tree_.collapse_homogeneous();
   st.time_ms.metadata = t.ms();
@@ -352,8 +416,11 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
     lod.pixel_angle = pixel;
   }
   lod.inv_voxel = settings_.lod_bias / d.min_spacing();
+  const LodParams footprint = lod;
+  if (pressure_ > 0) lod.inv_voxel *= std::exp2(float(pressure_) * 0.25f);
   const vec3 nearest = glm::clamp(gen.eye, vec3(0.0f), d.extent());
-  const int finest = gen.orthographic ? lod.level_at(0.0f) : lod.level_at(glm::length(nearest - gen.eye));
+  const float nearest_t = gen.orthographic ? 0.0f : glm::length(nearest - gen.eye);
+  const int finest = lod.level_at(nearest_t);
   const float step = s.step * float(1 << finest);
 
   const CastParams p = make_cast_params(s, d, *scene.tf, scene.enabled, source_->has_labels(), step, lod);
@@ -365,7 +432,12 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   request.vbox = Box3{vec3(0.0f), d.extent()};
   request.skip = skip;
   request.frame = frame_;
-  request.host = VirtualMemoryView{&layout_, page_table_.view(), cache_.view(), misses_.view(), source_->has_labels()};
+  request.host = VirtualMemoryView{&layout_, page_table_.view(), cache_.view(), misses_.view(), source_->has_labels(), {}};
+  shortfall_.assign(SampleShortfall::kStripes * SampleShortfall::kStride, 0);
+  request.host.shortfall.counters = shortfall_.data();
+  request.host.shortfall.footprint = footprint;
+  request.host.shortfall.eye = gen.eye;
+  request.host.shortfall.pressured = pressure_ > 0;
   cast(request, frame);
   touch_used_bricks();
 
@@ -380,7 +452,32 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   c.pending = loader_.pending();
   c.failed = loader_.failed_count();
   c.page_table_kb = page_table_.memory_kb();
-  converged_ = c.misses == 0 && c.pending == 0 && metadata_pending_.empty();
+  std::uint64_t incomplete = 0, coarsened = 0;
+  for (std::uint32_t k = 0; k < SampleShortfall::kStripes; ++k) {
+    incomplete += shortfall_[k * SampleShortfall::kStride];
+    coarsened += shortfall_[k * SampleShortfall::kStride + 1];
+  }
+  const double samples = double(std::max<std::uint64_t>(st.samples, 1));
+  c.completeness = 1.0 - std::min(1.0, double(incomplete) / samples);
+  c.lod_coarsened = std::min(1.0, double(coarsened) / samples);
+  for (const BrickId id : misses_.drain()) {
+    if (!page_table_.get(id).is_resident() && !loader_.failed(id)) ++c.bricks_missing;
+  }
+  const double slot_mb = double(cache_.slot_bytes()) / double(1 << 20);
+  c.cache_mb = double(cache_.slot_count()) * slot_mb;
+  if (need_footprint_ > cache_.slot_count()) {
+    c.working_set_mb = double(need_footprint_) * slot_mb;
+    c.working_set_level = settings_.lod >= 0 ? settings_.lod : footprint.level_at(nearest_t);
+  }
+  hits_last_ = c.hits;
+  // Converged: nothing in flight, and the misses are either gone or the same ones as last frame with
+  // nothing left to do about them (bricks that do not fit at a pinned level, or failed).
+  // A coarsened view is settled only once refining is no longer worth a try.
+  const bool may_refine = settings_.lod < 0 && pressure_ > 0 && pressure_ - 1 > overflow_at_;
+  const bool settled = !may_refine && (c.misses == 0 || (!resolved.changed && c.loads == 0 &&
+                                                         c.misses == misses_last_ && pressure_ == pressure_before));
+  misses_last_ = c.misses;
+  converged_ = settled && c.pending == 0 && metadata_pending_.empty();
   if (!converged_) {
     converged_at_ = -1;
   } else if (converged_at_ < 0) {

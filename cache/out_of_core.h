@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <memory>
 #include <unordered_map>
+#include <string>
 #include <unordered_set>
 #include <vector>
 
@@ -73,8 +74,20 @@ class OutOfCoreRenderer {
 
  private:
   struct Cull;
+  // What resolving the misses found: bricks known non-empty and not resident, how many of them were
+  // requested (the rest wait for room), and whether anything changed (a request, a mapping, metadata).
+  struct Resolved {
+    std::size_t loadable = 0;
+    std::size_t requested = 0;
+    bool changed = false;
+  };
   void upload(const Cull& cull);
-  void resolve_misses(const Cull& cull);
+  Resolved resolve_misses(const Cull& cull);
+  // Coarsens the automatic level of detail when the bricks the last frame wanted do not fit, refines
+  // it again when the view has settled and the finer step was not measured too big (DESIGN.md §4).
+  void adapt_pressure(const Resolved& r);
+  // Slots a load may take without evicting a brick the last frame used.
+  std::size_t room() const;
   void compute_metadata(const LoadedBrick& b, const Cull& cull);
   // Culling block c of `level` (a key of metadata_) as a region of the tree: node depth levels() - l
   // covering level-0 blocks [c * 2^l, (c + 1) * 2^l).
@@ -105,12 +118,23 @@ class OutOfCoreRenderer {
   std::unordered_map<std::uint64_t, BlockMetadata> metadata_;  // key: BrickId::pack(level, culling block)
   std::unordered_set<std::uint64_t> metadata_pending_;         // bricks requested for their metadata
   std::vector<BrickId> empty_entries_;                         // page entries set Empty by culling
+  std::unordered_set<std::string> reported_causes_;            // load failures reported so far
   std::uint64_t cull_key_ = 0;
   bool cull_valid_ = false;
   std::uint32_t frame_ = 0;
   bool converged_ = false;
   int converged_at_ = -1;
   std::uint64_t loads_this_frame_ = 0;
+  // Cache pressure: the level of detail is coarsened in quarter-octave steps (the pixel footprint is
+  // scaled by 2^(pressure / 4)), which first coarsens, within each level's distance band, the
+  // samples whose voxels are smallest on screen — where coarsening costs least.
+  int pressure_ = 0;
+  int overflow_at_ = -1;           // largest step measured too big for the cache in this view
+  std::uint64_t view_key_ = 0;     // camera and sampling; a change allows refining again
+  std::size_t hits_last_ = 0;      // slots the last cast used
+  std::size_t misses_last_ = 0;
+  std::size_t need_footprint_ = 0; // bricks the view wanted at pressure 0 when they did not fit
+  std::vector<std::uint64_t> shortfall_;  // SampleShortfall counters
   std::uint64_t metadata_computed_this_frame_ = 0;
   std::unique_ptr<CastDevice> device_;
   FramePipeline pipeline_;

@@ -98,7 +98,9 @@ void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback&
     lists.assign(r.skip.lists);
     skip.lists = lists.view();
   }
-  cast_virtual_frame(r.params, r.gen, r.vbox, skip, r.frame, view(), frame);
+  VirtualMemoryView vm = view();
+  vm.shortfall = r.host.shortfall;  // host counters: the simulated device counts as the CPU does
+  cast_virtual_frame(r.params, r.gen, r.vbox, skip, r.frame, vm, frame);
   // Copied back once per frame: the distinct misses and the slots used in this frame.
   fb.misses = misses_->drain();
   fb.used_slots.clear();

@@ -7,6 +7,10 @@
 
 #include <cstdint>
 
+#if !defined(__CUDA_ARCH__)
+#include <atomic>
+#endif
+
 #include "cache/brick.h"
 #include "cache/brick_cache.h"
 #include "cache/miss_buffer.h"
@@ -17,6 +21,44 @@
 
 namespace sl {
 
+// Per-frame counters of samples short of their level of detail, striped so that caster threads
+// rarely share a cache line (the stripe follows the caller's stack address). Plain data.
+struct SampleShortfall {
+  static constexpr std::uint32_t kStripes = 16;
+  static constexpr std::uint32_t kStride = 8;  // 64-byte lines: [0] incomplete, [1] coarsened
+  std::uint64_t* counters = nullptr;           // kStripes * kStride words, zeroed before the cast
+  LodParams footprint;                         // the frame's level of detail without pressure
+  vec3 eye{0.0f};                              // ray origin of a perspective view (t = distance)
+  bool pressured = false;                      // the cast's level of detail is coarser than footprint
+
+  SL_HOST_DEVICE void count(const vec3& p, int level, bool complete) const {
+    if (!complete) add(0);
+    if (pressured && level > 0 && finer_by_footprint(p, level)) add(1);
+  }
+  // footprint.level_at(|p - eye|) < level without a square root or a logarithm: the footprint's
+  // level is below `level` exactly when its ratio is below 2^level.
+  SL_HOST_DEVICE bool finer_by_footprint(const vec3& p, int level) const {
+    if (footprint.pixel_size > 0.0f) return footprint.level_at(0.0f) < level;
+    const vec3 d = p - eye;
+    const float r = footprint.pixel_angle * footprint.inv_voxel;
+    const float lim = float(1 << level);
+    return glm::dot(d, d) * r * r < lim * lim;
+  }
+
+ private:
+  SL_HOST_DEVICE void add(int which) const {
+    // Threads' stacks lie whole megabytes apart: hash the page number so they land on different lines.
+    const std::uint64_t page = std::uint64_t(reinterpret_cast<std::uintptr_t>(&which)) >> 12;
+    const std::uint32_t stripe = std::uint32_t((page * 0x9E3779B97F4A7C15ull) >> 60) % kStripes;
+    std::uint64_t* w = counters + stripe * kStride + std::uint32_t(which);
+#if defined(__CUDA_ARCH__)
+    atomicAdd(reinterpret_cast<unsigned long long*>(w), 1ull);
+#else
+    std::atomic_ref<std::uint64_t>(*w).fetch_add(1u, std::memory_order_relaxed);
+#endif
+  }
+};
+
 template <class T, class L>
 struct VirtualSampler {
   const BrickLayout* layout = nullptr;
@@ -25,6 +67,11 @@ struct VirtualSampler {
   MissBufferView misses;
   std::uint32_t frame = 0;
   bool has_labels = false;
+  // Completeness accounting (DESIGN.md §4, cache pressure); null: not counted. Samples not served at
+  // their chosen level (a coarser fallback or nothing) and, under pressure, samples coarser than
+  // `footprint` (the level of detail without pressure, from the eye) asks for. Only such samples
+  // count, so a complete frame without pressure pays one branch per sample.
+  SampleShortfall shortfall;
 
   // Per-ray brick cursor. The caster marches every span on its own copy of the sampler (RayCaster::
   // march copies itself), so these fields belong to one ray on one thread: consecutive samples in the
@@ -39,6 +86,7 @@ struct VirtualSampler {
     BrickId id;                   // the brick serving it (the wanted one or a resident ancestor)
     PageEntry entry;
     SlotSampler<T> voxels;        // valid when entry is resident
+    bool complete = false;        // the serving brick is the wanted one (not a fallback)
     bool labels_ready = false;
     SlotSampler<L> labels;        // built on first use
   };
@@ -72,6 +120,8 @@ struct VirtualSampler {
     }
     cur.id = id;
     cur.entry = e;
+    // Served at the chosen level: the wanted brick itself, resident or known Empty/Constant.
+    cur.complete = id.level() == c.level && e.state() != PageEntry::State::Unmapped;
     cur.labels_ready = false;
     if (e.is_resident()) {
       cache.touch(e.slot(), frame);
@@ -82,6 +132,11 @@ struct VirtualSampler {
 
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext& c) const {
     const Cursor& k = locate(p, c);
+    if (shortfall.counters) shortfall.count(p, c.level, k.complete);
+    return value(k, p);
+  }
+
+  SL_HOST_DEVICE SL_INLINE float value(const Cursor& k, const vec3& p) const {
     if (k.entry.is_resident()) return k.voxels.sample(p);
     if (k.entry.state() == PageEntry::State::Constant) return k.entry.constant_value(cache.voxel_type);
     return 0.0f;  // empty, or nothing resident yet: rendered as missing
@@ -98,10 +153,10 @@ struct VirtualSampler {
     return k.labels.label_at(p);
   }
 
-  // Central differences one voxel of the sampled level apart.
+  // Central differences one voxel of the sampled level apart (not counted as samples).
   SL_HOST_DEVICE vec3 gradient(const vec3& p, const vec3& spacing, const SampleContext& c) const {
     return central_difference_gradient(p, spacing * float(1 << c.level),
-                                       [this, &c](const vec3& q) { return sample(q, c); });
+                                       [this, &c](const vec3& q) { return value(locate(q, c), q); });
   }
 };
 

@@ -44,7 +44,9 @@ std::string stats_to_json(const Stats& s) {
     j["frame"] = s.cache.frame;
     j["cache"] = {{"resident_mb", s.cache.resident_mb}, {"hits", s.cache.hits},       {"misses", s.cache.misses},
                   {"loads", s.cache.loads},             {"evictions", s.cache.evictions}, {"pending", s.cache.pending},
-                  {"failed", s.cache.failed}};
+                  {"failed", s.cache.failed},           {"bricks_missing", s.cache.bricks_missing}};
+    j["completeness"] = s.cache.completeness;
+    j["lod_coarsened"] = s.cache.lod_coarsened;
     j["page_table_kb"] = s.cache.page_table_kb;
     j["converged_at_frame"] = s.cache.converged_at_frame;
   }
@@ -71,6 +73,9 @@ std::string stats_summary(const Stats& s) {
                   s.cache.converged_at_frame >= 0
                       ? (", converged at frame " + std::to_string(s.cache.converged_at_frame)).c_str()
                       : ", not converged");
+    line += buf;
+    std::snprintf(buf, sizeof buf, ", completeness %.3f, %.1f%% coarsened, %llu bricks missing",
+                  s.cache.completeness, 100.0 * s.cache.lod_coarsened, (unsigned long long)s.cache.bricks_missing);
     line += buf;
   }
   return line;

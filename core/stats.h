@@ -23,7 +23,17 @@ struct CacheStats {
   std::uint64_t pending = 0;     // loads in flight
   std::uint64_t failed = 0;      // bricks that failed to load (reported once each)
   double page_table_kb = 0;
-  int converged_at_frame = -1;   // first frame with no misses and nothing pending (-1: not yet)
+  int converged_at_frame = -1;   // first frame with nothing left to load or resolve (-1: not yet)
+  // Cache pressure (DESIGN.md §4): share of samples served at the level chosen for them (after any
+  // coarsening), share coarser than the pixel footprint asks because of pressure, bricks wanted
+  // but not resident; and the view's working set at the footprint's level, measured from the frame's
+  // requests, when it exceeds the cache (0 otherwise).
+  double completeness = 1.0;
+  double lod_coarsened = 0.0;
+  std::uint64_t bricks_missing = 0;
+  double working_set_mb = 0;
+  int working_set_level = 0;
+  double cache_mb = 0;           // the cache's budget in use (slots x slot size)
 };
 
 struct Stats {

@@ -50,6 +50,9 @@ void add_rows(std::vector<StatRow>& r, const Stats& s) {
     r.push_back({"evictions", human_count(double(c.evictions))});
     r.push_back({"failed", human_count(double(c.failed))});
     r.push_back({"converged at", c.converged_at_frame < 0 ? "-" : std::to_string(c.converged_at_frame)});
+    r.push_back({"complete", fmt("%.3f", c.completeness) +
+                                 (c.lod_coarsened > 0.0 ? fmt(" (%.0f%% coarser)", 100.0 * c.lod_coarsened) : "")});
+    r.push_back({"bricks missing", human_count(double(c.bricks_missing))});
   }
 }
 
