@@ -128,10 +128,12 @@ struct DenseGrid {
                           b + (z1 * sxy + y1 * sx), dx, fx, fy, fz);
   }
 
-  // The voxel containing world position p (nearest-neighbour lookup for labels), clamped.
+  // The voxel containing world position p (nearest-neighbour lookup for labels), clamped. Truncation
+  // equals floor after the clamp (a negative coordinate becomes 0 either way) and, unlike floorf,
+  // is one instruction on baseline x86-64.
   SL_HOST_DEVICE SL_INLINE std::uint32_t label_at(const vec3& p) const {
     const vec3 u = p * inv_spacing;
-    int x = int(glm::floor(u.x)), y = int(glm::floor(u.y)), z = int(glm::floor(u.z));
+    int x = int(u.x), y = int(u.y), z = int(u.z);
     x = x < 0 ? 0 : (x >= dims.x ? dims.x - 1 : x);
     y = y < 0 ? 0 : (y >= dims.y ? dims.y - 1 : y);
     z = z < 0 ? 0 : (z >= dims.z ? dims.z - 1 : z);
