@@ -27,6 +27,8 @@ struct LodParams {
   float pixel_size = 0.0f;     // orthographic: footprint = pixel_size
   float inv_voxel = 1.0f;      // 1 / level-0 voxel size (min spacing) times the bias
 
+  // One level for every sample (pinned, or a single level): the caster sets it once per span.
+  SL_HOST_DEVICE SL_INLINE bool constant() const { return pinned >= 0 || levels <= 1; }
   SL_HOST_DEVICE SL_INLINE int level_at(float t) const {
     if (pinned >= 0) return pinned;
     if (levels <= 1) return 0;
@@ -158,6 +160,8 @@ struct RayCaster {
     // The last value whose opacity was zero: runs of equal values (background, uniform regions) skip
     // the table. The opacity is a function of the value alone, so this changes nothing but the cost.
     float clear_v = NAN;  // compares unequal to every value
+    const bool lod_varies = !p.lod.constant();
+    if (!lod_varies) ctx.level = p.lod.level_at(0.0f);
     int k = k0;
     if constexpr (kFine) {
       // Cell by cell: the grid samples of a clear cell are skipped, those of an occupied cell taken.
@@ -170,7 +174,7 @@ struct RayCaster {
           next = next < k1 ? next : k1;
           if (fine.occupied_at(walk.index)) {
             for (; k < next; ++k) {
-              if (!take_sample(ray, t_entry, k, acc, ctx, clear_v)) return false;
+              if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies)) return false;
             }
           } else if (next > k) {
             k = next;
@@ -181,17 +185,17 @@ struct RayCaster {
     }
     // Without the grid every sample; with it the samples past the grid's edge, if rounding left any.
     for (; k < k1; ++k) {
-      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v)) return false;
+      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies)) return false;
     }
     return true;
   }
 
   // Sample k of march_local: fetch, classify, composite. False once the ray has terminated.
   SL_HOST_DEVICE SL_INLINE bool take_sample(const Ray& ray, float t_entry, int k, RayAccum& acc, SampleContext& ctx,
-                                            float& clear_v) const {
+                                            float& clear_v, bool lod_varies) const {
     const float t = t_entry + float(k) * p.dt;
     const vec3 pos = ray.at(t);
-    ctx.level = p.lod.level_at(t);
+    if (lod_varies) ctx.level = p.lod.level_at(t);
     const float v = volume.sample(pos, ctx);
     ++acc.samples;
     switch (p.mode) {
