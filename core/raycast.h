@@ -27,6 +27,8 @@ struct LodParams {
   float pixel_size = 0.0f;     // orthographic: footprint = pixel_size
   float inv_voxel = 1.0f;      // 1 / level-0 voxel size (min spacing) times the bias
 
+  // One level for every sample (pinned, or a single level): the caster sets it once per span.
+  SL_HOST_DEVICE SL_INLINE bool constant() const { return pinned >= 0 || levels <= 1; }
   SL_HOST_DEVICE SL_INLINE int level_at(float t) const {
     if (pinned >= 0) return pinned;
     if (levels <= 1) return 0;
@@ -92,7 +94,10 @@ struct RayAccum {
 SL_HOST_DEVICE inline int sample_index(float t, float t_entry, float inv_dt) {
   const float x = (t - t_entry) * inv_dt;
   if (!(x > 0.0f)) return 0;
-  return x > 2.0e9f ? 2000000000 : int(ceilf(x));
+  if (x > 2.0e9f) return 2000000000;
+  // ceil by truncation (x > 0): ceilf is a libm call on baseline x86-64 (no SSE4.1 roundss).
+  const int i = int(x);
+  return float(i) < x ? i + 1 : i;
 }
 
 // Blinn–Phong with a headlight (light along the view ray), two-sided.
@@ -155,71 +160,81 @@ struct RayCaster {
     // The last value whose opacity was zero: runs of equal values (background, uniform regions) skip
     // the table. The opacity is a function of the value alone, so this changes nothing but the cost.
     float clear_v = NAN;  // compares unequal to every value
-    int cell_end = k0;    // kFine: samples before this index lie in the current occupied cell
-    vec3 inv_dir{0.0f};
-    if constexpr (kFine) inv_dir = FineOccupancyView::inverse_direction(ray);
-    for (int k = k0; k < k1; ++k) {
-      const float t = t_entry + float(k) * p.dt;
-      const vec3 pos = ray.at(t);
-      if constexpr (kFine) {
-        if (k >= cell_end) {
-          // Entering a cell: find the first grid sample past its exit, and skip the samples up to it
-          // when the cell is clear. Rounding can put that index at or before k: then this sample
-          // alone belongs to the cell.
-          const ivec3 c = fine.cell_of(pos);
-          // First grid index at or past the exit (a ceiling: the exit lies past t >= t_entry).
-          const float x = (fine.cell_exit(ray, inv_dir, c) - t_entry) * p.inv_dt;
-          int next = x < 2.0e9f ? int(x) : 2000000000;
-          next += float(next) < x ? 1 : 0;
-          next = next > k ? next : k + 1;
-          if (!fine.occupied(c)) {
-            k = next - 1;
-            continue;
+    const bool lod_varies = !p.lod.constant();
+    if (!lod_varies) ctx.level = p.lod.level_at(0.0f);
+    int k = k0;
+    if constexpr (kFine) {
+      // Cell by cell: the grid samples of a clear cell are skipped, those of an occupied cell taken.
+      // A cell owns the samples before its exit that the previous cells did not take; rounding can
+      // leave it none, or hand a sample to its neighbour — within the half-voxel margin either way.
+      if (k < k1) {
+        FineCellWalk walk(fine, ray, ray.at(t_entry + float(k) * p.dt));
+        for (;;) {
+          int next = sample_index(walk.exit(), t_entry, p.inv_dt);
+          next = next < k1 ? next : k1;
+          if (fine.occupied_at(walk.index)) {
+            for (; k < next; ++k) {
+              if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies)) return false;
+            }
+          } else if (next > k) {
+            k = next;
           }
-          cell_end = next;
+          if (k >= k1 || !walk.advance(fine, ray)) break;
         }
       }
-      ctx.level = p.lod.level_at(t);
-      const float v = volume.sample(pos, ctx);
-      ++acc.samples;
-      switch (p.mode) {
-        // Opacity first: the label fetch and the colour are read only for samples that can
-        // contribute (the order of the tests does not change which samples composite).
-        case RenderMode::Dvr: {
-          if (v == clear_v) break;
-          const TransferFunctionView::Coord tc = p.tf.coord(v);
-          const float a = p.tf.alpha_at(tc);
-          if (!(a > 0.0f)) {
-            clear_v = v;
-            break;
-          }
-          if (!visible_label(pos, ctx)) break;
-          if (!composite(p.tf.rgb_at(tc), a, acc)) return false;
+    }
+    // Without the grid every sample; with it the samples past the grid's edge, if rounding left any.
+    for (; k < k1; ++k) {
+      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies)) return false;
+    }
+    return true;
+  }
+
+  // Sample k of march_local: fetch, classify, composite. False once the ray has terminated.
+  SL_HOST_DEVICE SL_INLINE bool take_sample(const Ray& ray, float t_entry, int k, RayAccum& acc, SampleContext& ctx,
+                                            float& clear_v, bool lod_varies) const {
+    const float t = t_entry + float(k) * p.dt;
+    const vec3 pos = ray.at(t);
+    if (lod_varies) ctx.level = p.lod.level_at(t);
+    const float v = volume.sample(pos, ctx);
+    ++acc.samples;
+    switch (p.mode) {
+      // Opacity first: the label fetch and the colour are read only for samples that can
+      // contribute (the order of the tests does not change which samples composite).
+      case RenderMode::Dvr: {
+        if (v == clear_v) break;
+        const TransferFunctionView::Coord tc = p.tf.coord(v);
+        const float a = p.tf.alpha_at(tc);
+        if (!(a > 0.0f)) {
+          clear_v = v;
           break;
         }
-        case RenderMode::Labels: {
-          const float a = p.tf.alpha_at(p.tf.coord(v));
-          if (!(a > 0.0f)) break;
-          const std::uint32_t id = volume.label_at(pos, ctx);
-          if (id == 0u || !p.labels.enabled(id)) break;
-          if (!composite(label_color(id), a, acc)) return false;
-          break;
+        if (!visible_label(pos, ctx)) break;
+        if (!composite(p.tf.rgb_at(tc), a, acc)) return false;
+        break;
+      }
+      case RenderMode::Labels: {
+        const float a = p.tf.alpha_at(p.tf.coord(v));
+        if (!(a > 0.0f)) break;
+        const std::uint32_t id = volume.label_at(pos, ctx);
+        if (id == 0u || !p.labels.enabled(id)) break;
+        if (!composite(label_color(id), a, acc)) return false;
+        break;
+      }
+      case RenderMode::Mip: {
+        if (!visible_label(pos, ctx)) break;
+        if (!acc.mip_any || v > acc.mip_max) acc.mip_max = v;
+        acc.mip_any = true;
+        ++acc.useful_samples;
+        break;
+      }
+      case RenderMode::Iso: {
+        if (acc.prev_k == k - 1 && ((acc.prev_v < p.iso) != (v < p.iso))) {
+          if (iso_hit(ray, t - p.dt, acc.prev_v, t, v, ctx, acc)) return false;
         }
-        case RenderMode::Mip: {
-          if (!visible_label(pos, ctx)) break;
-          if (!acc.mip_any || v > acc.mip_max) acc.mip_max = v;
-          acc.mip_any = true;
-          ++acc.useful_samples;
-          break;
-        }
-        case RenderMode::Iso: {
-          if (acc.prev_k == k - 1 && ((acc.prev_v < p.iso) != (v < p.iso))) {
-            if (iso_hit(ray, t - p.dt, acc.prev_v, t, v, ctx, acc)) return false;
-          }
-          acc.prev_v = v;
-          acc.prev_k = k;
-          break;
-        }
+        acc.prev_v = v;
+        acc.prev_k = k;
+        break;
       }
     }
     return true;
