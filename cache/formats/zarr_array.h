@@ -11,6 +11,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "cache/formats/zarr3_store.h"
 #include "cache/formats/zarr_meta.h"
 
 namespace sl::zarr {
@@ -64,9 +65,13 @@ class ArrayReader {
   ChunkCache::Chunk chunk(int level, ivec3 c) const;
 
  private:
+  // Zarr v3: chunk c of the read grid (an inner chunk when sharded) through bytes_ (zarr3_codec.h).
+  ChunkCache::Chunk chunk_v3(int level, ivec3 c) const;
+
   Multiscale m_;
   std::string store_;
   std::shared_ptr<ChunkCache> cache_;
+  std::shared_ptr<const v3::ByteStore> bytes_;  // v3 levels read through it (a local directory today)
   std::vector<ChunkCache::Chunk> fill_;  // per level: a chunk of the fill value
 };
 
