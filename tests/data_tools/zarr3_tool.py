@@ -10,6 +10,9 @@
       regions to the fill value, so zarr-python leaves those inner chunks empty (offset = nbytes =
       2^64-1) or whole shards unwritten; --missing also deletes every third chunk (or shard) file of
       level 0.
+  dump STORE OUT
+      Opens a store `sparseleap ingest --format zarr3` wrote, checks the NGFF 0.5 metadata, and writes
+      every level (and labels/labels) as little-endian raw bytes to OUT.L / OUT.labels.L; prints a summary.
   convert V2STORE V3STORE [--chunks Z,Y,X] [--shards Z,Y,X] [--compressor C] [--crc]
       Copies an NGFF 0.4 / Zarr v2 store (image and labels) into NGFF 0.5 / Zarr v3, level by level.
 """
@@ -167,6 +170,32 @@ def convert(a):
                                "image-label": {"version": "0.5"}}
 
 
+def dump(a):
+    import zarr
+    root = zarr.open_group(a.store, mode="r", zarr_format=3)
+    out = []
+
+    def one(group, prefix):
+        ome = group.attrs["ome"]
+        assert ome["version"] == "0.5", ome
+        ms = ome["multiscales"][0]
+        assert [ax["name"] for ax in ms["axes"]] == ["z", "y", "x"], ms["axes"]
+        for lev, ds in enumerate(ms["datasets"]):
+            arr = group[ds["path"]]
+            assert list(arr.metadata.dimension_names) == ["z", "y", "x"], arr.metadata.dimension_names
+            v = np.asarray(arr[...])
+            scale = ds["coordinateTransformations"][0]["scale"]
+            out.append("%s%d %s %s shards=%s chunks=%s %s" % (prefix, lev, "x".join(map(str, arr.shape)), arr.dtype.str,
+                                                           arr.shards, arr.chunks, ",".join("%g" % s for s in scale)))
+            v.astype(v.dtype.newbyteorder("<")).tofile(a.out + "." + prefix + str(lev))
+
+    one(root, "")
+    if "labels" in root:
+        names = root["labels"].attrs["ome"]["labels"]
+        one(root["labels"][names[0]], "labels.")
+    print("\n".join(out))
+
+
 def main():
     p = argparse.ArgumentParser()
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -193,6 +222,9 @@ def main():
     m.add_argument("--levels", type=int, default=3)
     m.add_argument("--bare", action="store_true")
     m.add_argument("--seed", type=int, default=1)
+    d = sub.add_parser("dump")
+    d.add_argument("store")
+    d.add_argument("out")
     c = sub.add_parser("convert")
     c.add_argument("v2")
     c.add_argument("v3")
@@ -201,7 +233,7 @@ def main():
     c.add_argument("--compressor", default="none")
     c.add_argument("--crc", action="store_true")
     a = p.parse_args()
-    {"make": make, "convert": convert}[a.cmd](a)
+    {"make": make, "dump": dump, "convert": convert}[a.cmd](a)
 
 
 if __name__ == "__main__":

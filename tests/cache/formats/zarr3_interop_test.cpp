@@ -2,7 +2,9 @@
 // writes with every supported codec combination (sharded and not, shard index at the start or end,
 // with and without crc32c, partially empty and missing shards, both chunk key encodings, big-endian
 // bytes, transpose, int16) read voxel for voxel through ZarrVolumeSource and the in-core path; and
-// corrupted shards are errors naming the store, the level and the shard.
+// corrupted shards are errors naming the store, the level and the shard. Stores `ingest --format
+// zarr3` writes (sharded and not) opened by zarr-python 3 and compared voxel for voxel with
+// MemoryVolumeSource's pyramid, and read back by our reader.
 #include <gtest/gtest.h>
 
 #include <cstring>
@@ -10,6 +12,8 @@
 #include <fstream>
 #include <ostream>
 
+#include "cache/formats/ingest.h"
+#include "cache/formats/nrrd.h"
 #include "cache/formats/zarr_source.h"
 #include "core/error.h"
 #include "tests/cache/formats/zarr_bricks_match.h"
@@ -168,6 +172,97 @@ TEST(Zarr3BadShard, IndexEntryHalfEmpty) {
   }
   const std::string e = read_all_error((dir / "s.zarr").string());
   EXPECT_NE(e.find("inner chunk (0,0,0): shard index entry (offset 18446744073709551615"), std::string::npos) << e;
+}
+
+struct Write3Case {
+  std::string name, compressor;
+  VoxelType type;
+  int shard;
+  bool labels;
+};
+
+std::ostream& operator<<(std::ostream& os, const Write3Case& c) { return os << c.name; }
+
+class Zarr3PeerOpensOurs : public ::testing::TestWithParam<Write3Case> {};
+
+TEST_P(Zarr3PeerOpensOurs, VoxelForVoxel) {
+  SL_REQUIRE_PEER3();
+  const Write3Case& c = GetParam();
+  const fs::path dir = test::scratch_dir();
+  const ivec3 dims(37, 22, 41);
+  Volume v(VolumeDesc{dims, vec3(0.5f, 1.0f, 2.0f), c.type});
+  auto labels = std::make_shared<Volume>(VolumeDesc{dims, vec3(1.0f), VoxelType::U16});
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x) {
+        // Zero regions too, so inner chunks (and whole shards) are left empty and read as the fill value.
+        const float f = float((x * 3 + y * 5 + z * 7) % 97);
+        v.set(x, y, z, x < dims.x / 3 || z > 30 ? 0.0f : c.type == VoxelType::F32 ? f * 0.25f - 3.0f : f);
+        labels->set(x, y, z, float((x / 5 + y / 7 + z / 3) % 9));
+      }
+  write_nrrd((dir / "in.nrrd").string(), v);
+  if (c.labels) write_nrrd((dir / "lab.nrrd").string(), *labels);
+  IngestOptions o;
+  o.chunk = 8;
+  o.compressor = zarr::compressor_from_name(c.compressor, -1);
+  o.zarr_format = 3;
+  o.shard = c.shard;
+  if (c.labels) o.labels = (dir / "lab.nrrd").string();
+  const IngestResult r = ingest((dir / "in.nrrd").string(), (dir / "out.zarr").string(), o);
+  EXPECT_EQ(r.levels, 4);
+
+  std::string out;
+  ASSERT_EQ(test::run_peer3("dump " + (dir / "out.zarr").string() + " " + (dir / "dump").string(), &out), 0) << out;
+  EXPECT_NE(out.find("0 41x22x37"), std::string::npos) << out;
+  const std::string shards = c.shard ? "shards=(" + std::to_string(8 * c.shard) + ", " : "shards=None";
+  EXPECT_NE(out.find(shards), std::string::npos) << out;
+  const MemoryVolumeSource ref(std::make_shared<const Volume>(v), c.labels ? labels : nullptr);
+  for (int l = 0; l < r.levels; ++l) {
+    const auto b = test::read_bytes(dir / ("dump." + std::to_string(l)));
+    ASSERT_EQ(b.size(), ref.level(l).desc().byte_size()) << "level " << l;
+    EXPECT_EQ(std::memcmp(b.data(), ref.level(l).data(), b.size()), 0) << "level " << l;
+    if (c.labels) {
+      const auto lb = test::read_bytes(dir / ("dump.labels." + std::to_string(l)));
+      ASSERT_EQ(lb.size(), ref.label_level(l)->desc().byte_size()) << "labels level " << l;
+      EXPECT_EQ(std::memcmp(lb.data(), ref.label_level(l)->data(), lb.size()), 0) << "labels level " << l;
+    }
+  }
+  const ZarrVolumeSource src((dir / "out.zarr").string());
+  EXPECT_EQ(src.max_label(), c.labels ? 8u : 0u);
+  const BrickLayout layout = BrickLayout::make(v.desc(), 8);
+  std::vector<std::byte> a(std::size_t(layout.stored_voxels()) * std::size_t(voxel_size(c.type))), b(a.size());
+  std::vector<std::byte> la(c.labels ? std::size_t(layout.stored_voxels()) * 2 : 0), lb(la.size());
+  for (int l = 0; l < layout.levels; ++l) {
+    const ivec3 nb = layout.bricks(l);
+    for (int i = 0; i < nb.x * nb.y * nb.z; ++i) {
+      const BrickId id = BrickId::pack(l, ivec3(i % nb.x, (i / nb.x) % nb.y, i / (nb.x * nb.y)));
+      src.read_brick(layout, id, a, la);
+      ref.read_brick(layout, id, b, lb);
+      ASSERT_EQ(a, b) << to_string(id);
+      ASSERT_EQ(la, lb) << to_string(id);
+    }
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Writer, Zarr3PeerOpensOurs,
+                         ::testing::Values(Write3Case{"shard2_blosc_zstd_u16_labels", "blosc-zstd", VoxelType::U16, 2, true},
+                                           Write3Case{"shard3_zstd_u8", "zstd", VoxelType::U8, 3, false},
+                                           Write3Case{"unsharded_gzip_f32", "gzip", VoxelType::F32, 0, false},
+                                           Write3Case{"shard2_none_u32_labels", "none", VoxelType::U32, 2, true},
+                                           Write3Case{"unsharded_blosc_lz4_u8_labels", "blosc-lz4", VoxelType::U8, 0, true}),
+                         [](const ::testing::TestParamInfo<Write3Case>& i) { return i.param.name; });
+
+TEST(Zarr3Ingest, RefusesShardsOnV2AndZlibOnV3) {
+  const fs::path dir = test::scratch_dir();
+  write_nrrd((dir / "in.nrrd").string(), Volume(VolumeDesc{ivec3(8), vec3(1.0f), VoxelType::U8}));
+  IngestOptions o;
+  o.chunk = 8;
+  o.shard = 2;
+  EXPECT_THROW(ingest((dir / "in.nrrd").string(), (dir / "a.zarr").string(), o), InputError);
+  o.zarr_format = 3;
+  o.compressor = zarr::compressor_from_name("zlib", -1);
+  EXPECT_THROW(ingest((dir / "in.nrrd").string(), (dir / "b.zarr").string(), o), InputError);
+  EXPECT_FALSE(fs::exists(dir / "a.zarr") || fs::exists(dir / "b.zarr"));
 }
 
 }  // namespace
