@@ -78,7 +78,8 @@ std::size_t ChunkCache::bytes() const {
 
 ArrayReader::ArrayReader(Multiscale m, std::string store, std::shared_ptr<ChunkCache> cache)
     : m_(std::move(m)), store_(std::move(store)), cache_(std::move(cache)),
-      bytes_(std::make_shared<v3::LocalByteStore>(m_.dir.string())) {
+      bytes_(std::make_shared<v3::LocalByteStore>(m_.dir.string())),
+      index_cache_(std::make_shared<ChunkCache>(kShardIndexCacheBytes)) {
   SL_CHECK(cache_ != nullptr);
   for (const Level& l : m_.levels) fill_.push_back(make_fill_chunk(l.meta));
 }
@@ -129,7 +130,7 @@ ChunkCache::Chunk ArrayReader::chunk_v3(int level, ivec3 c) const {
   if (ChunkCache::Chunk hit = cache_->get(key)) return hit;
   std::optional<std::vector<std::byte>> data;
   try {
-    data = v3::read_chunk(*lv.meta.v3, *bytes_, lv.path + "/", g, *cache_, prefix);
+    data = v3::read_chunk(*lv.meta.v3, *bytes_, lv.path + "/", g, *index_cache_, prefix);
   } catch (const std::runtime_error& e) {
     throw InputError(store_, level_name(m_, level) + " " + e.what());
   }

@@ -45,6 +45,10 @@ class ChunkCache {
 // Default chunk-cache bound of a ZarrVolumeSource: big enough for the chunks a few loader threads
 // touch at once plus neighbours (aprons), small next to the brick cache.
 inline constexpr std::size_t kDefaultChunkCacheBytes = std::size_t(256) << 20;
+// Bound of an ArrayReader's cache of decoded shard indices (Zarr v3), kept apart from the chunks so
+// that neither a chunk-free reader (the in-core load) nor a stream of chunks re-reads an index per
+// inner chunk: 64 MiB holds the indices of 4096 shards of 32³ inner chunks.
+inline constexpr std::size_t kShardIndexCacheBytes = std::size_t(64) << 20;
 
 class ArrayReader {
  public:
@@ -72,6 +76,7 @@ class ArrayReader {
   std::string store_;
   std::shared_ptr<ChunkCache> cache_;
   std::shared_ptr<const v3::ByteStore> bytes_;  // v3 levels read through it (a local directory today)
+  std::shared_ptr<ChunkCache> index_cache_;     // v3 shard indices
   std::vector<ChunkCache::Chunk> fill_;  // per level: a chunk of the fill value
 };
 
