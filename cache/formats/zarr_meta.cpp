@@ -64,7 +64,7 @@ std::vector<std::int64_t> int_list(const json& j, const char* key) {
 ArrayMeta parse_array(const json& j) {
   if (!j.is_object()) throw std::runtime_error(".zarray is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 2) {
-    throw std::runtime_error("zarr_format must be 2 (Zarr v3 stores are not supported)");
+    throw std::runtime_error("zarr_format must be 2 in a .zarray (Zarr v3 arrays keep their metadata in zarr.json)");
   }
   ArrayMeta m;
   m.shape = int_list(j, "shape");
