@@ -2,7 +2,7 @@
 (.venv-peers/bin/python, made by scripts/setup).
 
   make STORE EXPECTED --dtype D --shape Z,Y,X --chunks Z,Y,X [--shards Z,Y,X] [--index start|end]
-       [--no-index-crc] [--compressor C] [--crc] [--endian little|big] [--transpose] [--keys default|v2]
+       [--no-index-crc] [--compressor C] [--crc] [--endian little|big] [--transpose [--order A,B,C]] [--keys default|v2]
        [--sep / | .] [--fill V] [--holes] [--missing] [--labels] [--ndim 3|5] [--levels N] [--bare]
       Writes an OME-Zarr (NGFF 0.5) store (or with --bare a bare array) with zarr-python 3 and, for each
       level L, the voxels as little-endian raw bytes in EXPECTED.L (labels: EXPECTED.labels.L; int16 as
@@ -64,7 +64,8 @@ def create(group_or_store, name, a, shape, dtype, fill, lead, dims):
     from zarr.codecs import BytesCodec, Crc32cCodec, ShardingCodec, TransposeCodec
     chunks = lead + tup(a.chunks)
     inner = compressors(a.compressor, a.crc)
-    filters = [TransposeCodec(order=tuple(reversed(range(len(shape)))))] if a.transpose else []
+    order = tup(a.order) if getattr(a, "order", None) else tuple(reversed(range(len(shape))))
+    filters = [TransposeCodec(order=order)] if a.transpose else []
     serializer = BytesCodec(endian=a.endian) if np.dtype(dtype).itemsize > 1 else BytesCodec()
     kwargs = dict(shape=shape, dtype=dtype, fill_value=fill, dimension_names=dims, overwrite=True,
                   chunk_key_encoding={"name": a.keys, "separator": a.sep})
@@ -212,6 +213,7 @@ def main():
     m.add_argument("--crc", action="store_true")
     m.add_argument("--endian", default="little")
     m.add_argument("--transpose", action="store_true")
+    m.add_argument("--order", help="the transpose order (default: reversed axes)")
     m.add_argument("--keys", default="default")
     m.add_argument("--sep", default="/")
     m.add_argument("--fill", default="0")

@@ -72,6 +72,11 @@ INSTANTIATE_TEST_SUITE_P(
                   "--chunks 5,7,9 --compressor gzip --endian big --keys v2 --sep ."},
         Peer3Case{"zstd_transpose_f32_dot_keys", "float32", VoxelType::F32,
                   "--chunks 4,16,16 --compressor zstd --transpose --sep ."},
+        // Not an involution: decoding with the order instead of its inverse would be caught.
+        Peer3Case{"gzip_transpose_1_2_0_u16", "uint16", VoxelType::U16,
+                  "--chunks 4,6,10 --compressor gzip --transpose --order 1,2,0"},
+        Peer3Case{"shard_transpose_2_0_1_u8", "uint8", VoxelType::U8,
+                  "--chunks 4,6,10 --shards 8,12,20 --transpose --order 2,0,1 --holes"},
         Peer3Case{"blosc_bitshuffle_crc32c_u32", "uint32", VoxelType::U32,
                   "--chunks 8,16,32 --compressor blosc-lz4-bitshuffle --crc"},
         Peer3Case{"blosc_zstd_int16_as_float_missing", "int16", VoxelType::F32,
