@@ -6,6 +6,7 @@
 #include "apps/commands.h"
 #include "cache/formats/nrrd.h"
 #include "cache/formats/volume_file.h"
+#include "cache/formats/zarr3_codec.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
 #include "core/error.h"
@@ -39,12 +40,18 @@ void print_levels(const zarr::Multiscale& m) {
   for (std::size_t l = 0; l < m.levels.size(); ++l) {
     const zarr::Level& lv = m.levels[l];
     const ivec3 c = lv.meta.chunk_dims();
-    const ivec3 n = (lv.dims + c - 1) / c;
+    // A sharded v3 array stores one file per shard; its chunks are the inner chunks.
+    const zarr::v3::ArrayCodecs* v3 = lv.meta.v3.get();
+    const bool sharded = v3 && v3->shard;
+    const std::size_t g = sharded ? v3->grid.size() : 0;
+    const ivec3 f = sharded ? ivec3(int(v3->grid[g - 1]), int(v3->grid[g - 2]), int(v3->grid[g - 3])) : c;
+    const ivec3 n = (lv.dims + f - 1) / f;
     const DiskUsage u = disk_usage(m.dir / lv.path);
     const std::uint64_t total = std::uint64_t(n.x) * std::uint64_t(n.y) * std::uint64_t(n.z);
-    std::printf("    %zu  %-5s %5d x %5d x %5d  chunks %dx%dx%d  scale %g %g %g  %llu/%llu chunks stored\n", l,
+    std::printf("    %zu  %-5s %5d x %5d x %5d  chunks %dx%dx%d  scale %g %g %g  %llu/%llu %s stored\n", l,
                 ("'" + lv.path + "'").c_str(), lv.dims.x, lv.dims.y, lv.dims.z, c.x, c.y, c.z, lv.scale.x, lv.scale.y,
-                lv.scale.z, (unsigned long long)(u.files > 0 ? u.files - 1 : 0), (unsigned long long)total);
+                lv.scale.z, (unsigned long long)(u.files > 0 ? u.files - 1 : 0), (unsigned long long)total,
+                sharded ? "shards" : "chunks");
   }
 }
 
@@ -52,11 +59,12 @@ void print_zarr(const std::string& path, bool stats) {
   const zarr::StoreInfo s = zarr::open_store(path);
   const VolumeDesc& d = s.image.desc;
   const DiskUsage u = disk_usage(path);
-  std::printf("%s (OME-Zarr, Zarr v2)\n  dims    %d x %d x %d\n  type    %s\n  spacing %g %g %g\n", path.c_str(),
+  std::printf("%s (OME-Zarr, Zarr v%d)\n  dims    %d x %d x %d\n  type    %s\n  spacing %g %g %g\n", path.c_str(),
+              s.image.levels[0].meta.v3 ? 3 : 2,
               d.dims.x, d.dims.y, d.dims.z, to_string(d.type), d.spacing.x, d.spacing.y, d.spacing.z);
   std::printf("  size    %.1f MiB of voxels at level 0, %.2f MiB on disk in %llu files\n", mib(d.byte_size()),
               mib(u.bytes), (unsigned long long)u.files);
-  std::printf("  compressor %s\n", zarr::describe(s.image.levels[0].meta.compressor).c_str());
+  std::printf("  compressor %s\n", zarr::describe(s.image.levels[0].meta).c_str());
   std::printf("  levels  %zu\n", s.image.levels.size());
   print_levels(s.image);
   if (s.label_names.empty()) {
@@ -66,7 +74,7 @@ void print_zarr(const std::string& path, bool stats) {
     std::printf("  labels  %zu image(s): ", s.label_names.size());
     for (std::size_t i = 0; i < s.label_names.size(); ++i) std::printf("%s%s", i ? ", " : "", s.label_names[i].c_str());
     std::printf("\n  labels/%s: %s, %zu levels, %s\n", s.label_names[0].c_str(), to_string(m.desc.type), m.levels.size(),
-                zarr::describe(m.levels[0].meta.compressor).c_str());
+                zarr::describe(m.levels[0].meta).c_str());
     print_levels(m);
     // The max label: free when `ingest` recorded it; otherwise a scan of a small level.
     if (stats) std::printf("  max label %u\n", ZarrVolumeSource(path).max_label());

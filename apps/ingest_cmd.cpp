@@ -21,6 +21,8 @@ struct IngestCmdOptions {
   std::string in, out, labels;
   int chunk = 64;
   std::string compressor = "blosc-zstd";
+  std::string format = "zarr2";
+  int shard = 0;
   int level = -1;
   bool force = false;
 };
@@ -117,6 +119,9 @@ int run_ingest(const IngestCmdOptions& o) {
     const bool level = std::string(e.what()).rfind("level", 0) == 0;
     throw InputError(level ? "--level" : "--compressor", e.what());
   }
+  if (o.format != "zarr2" && o.format != "zarr3") throw InputError("--format", "must be zarr2 or zarr3, got '" + o.format + "'");
+  io.zarr_format = o.format == "zarr3" ? 3 : 2;
+  io.shard = o.shard;
   io.labels = o.labels;
   io.force = o.force;
   io.max_memory = in_memory_limit();
@@ -146,7 +151,7 @@ Runner add_ingest_command(CLI::App& app) {
   auto o = std::make_shared<IngestCmdOptions>();
   CLI::App* c = app.add_subcommand(
       "ingest",
-      "Convert NRRD, a TIFF stack or NIfTI into an OME-Zarr store (NGFF 0.4, Zarr v2) with a full pyramid. "
+      "Convert NRRD, a TIFF stack or NIfTI into an OME-Zarr store (NGFF 0.4 on Zarr v2, or with --format zarr3 NGFF 0.5 on Zarr v3) with a full pyramid. "
       "Built slab by slab: peak memory is about 4/3 x chunk x X x Y x bytes-per-voxel (plus the same for "
       "labels), independent of the depth Z.");
   c->add_option("in", o->in, "Input: .nrrd/.nhdr, .tif/.tiff (multipage) or a directory of 2-D TIFFs, .nii/.nii.gz")
@@ -154,6 +159,9 @@ Runner add_ingest_command(CLI::App& app) {
   c->add_option("out", o->out, "Output store (directory, e.g. volume.zarr)")->required();
   c->add_option("--chunk", o->chunk, "Chunk edge in voxels (even, 8-512)")->capture_default_str();
   c->add_option("--compressor", o->compressor, "none, zlib, gzip, zstd, blosc-lz4, blosc-zstd or blosc-zlib")
+      ->capture_default_str();
+  c->add_option("--format", o->format, "zarr2 (NGFF 0.4 on Zarr v2) or zarr3 (NGFF 0.5 on Zarr v3)")->capture_default_str();
+  c->add_option("--shard", o->shard, "Zarr v3: shards of N x N x N chunks (sharding_indexed; 0: no shards)")
       ->capture_default_str();
   c->add_option("--level", o->level,
                 "Compression level (default: zlib/gzip 6, zstd 3, blosc 5; ranges zlib/gzip/blosc 0-9, zstd 0-22)");

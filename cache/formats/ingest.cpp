@@ -244,7 +244,7 @@ int ingest_levels(ivec3 dims, int chunk) {
   return levels;
 }
 
-std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_type, int chunk) {
+std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_type, int chunk, int shard) {
   const int levels = ingest_levels(d.dims, chunk);
   std::uint64_t per_voxel_layers = 0;  // voxels in all layer buffers
   ivec3 dims = d.dims;
@@ -253,6 +253,8 @@ std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_t
   }
   const std::uint64_t chunk_voxels = std::uint64_t(chunk) * std::uint64_t(chunk) * std::uint64_t(chunk);
   const std::uint64_t threads = std::uint64_t(std::max(1, tbb::info::default_concurrency()));
+  // A sharded level holds up to `shard` chunk layers of encoded chunks until its shard layer is complete.
+  per_voxel_layers *= std::uint64_t(1 + shard);
   std::uint64_t b = per_voxel_layers * std::uint64_t(voxel_size(d.type)) +
                     2 * threads * chunk_voxels * std::uint64_t(voxel_size(d.type));  // chunk + encoded copy
   if (label_type) {
@@ -265,6 +267,12 @@ std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_t
 IngestResult ingest(const std::string& in, const std::string& out, const IngestOptions& o) {
   if (o.chunk < 8 || o.chunk > 512 || o.chunk % 2 != 0) {
     throw InputError("--chunk", "must be an even number between 8 and 512, got " + std::to_string(o.chunk));
+  }
+  if (o.zarr_format != 2 && o.zarr_format != 3) throw InputError("--format", "must be zarr2 or zarr3");
+  if (o.shard != 0 && o.zarr_format != 3) throw InputError("--shard", "needs --format zarr3 (Zarr v2 has no shards)");
+  if (o.shard < 0 || o.shard > 64) throw InputError("--shard", "must be 1-64 chunks, got " + std::to_string(o.shard));
+  if (o.zarr_format == 3 && o.compressor.id == zarr::Compressor::Id::Zlib) {
+    throw InputError("--compressor", "zlib has no Zarr v3 codec (use gzip)");
   }
   std::unique_ptr<SlabReader> image = open_slab_reader(in);
   std::unique_ptr<SlabReader> labels;
@@ -301,17 +309,20 @@ IngestResult ingest(const std::string& in, const std::string& out, const IngestO
   IngestResult r;
   r.desc = desc;
   r.levels = ingest_levels(desc.dims, o.chunk);
-  r.memory_bound = memory_bound(desc, labels ? std::optional(labels->desc().type) : std::nullopt, o.chunk);
+  r.memory_bound = memory_bound(desc, labels ? std::optional(labels->desc().type) : std::nullopt, o.chunk, o.shard);
   if (o.max_memory && r.memory_bound > o.max_memory) {
     const auto mib = [](std::uint64_t b) { return std::to_string((b + (1u << 20) - 1) >> 20) + " MiB"; };
     throw InputError(in, "ingest would need " + mib(r.memory_bound) + " for its layers of chunk x X x Y voxels, more than " +
-                             mib(o.max_memory) + " (half of this machine's memory); choose a smaller --chunk");
+                             mib(o.max_memory) + " (half of this machine's memory); choose a smaller --chunk" +
+                             (o.shard ? std::string(" or --shard") : std::string()));
   }
   try {
     zarr::WriterOptions wo;
     wo.chunk = o.chunk;
     wo.compressor = o.compressor;
     wo.levels = r.levels;
+    wo.zarr_format = o.zarr_format;
+    wo.shard = o.shard;
     if (labels) wo.label_type = labels->desc().type;
     zarr::StoreWriter w(tmp, out, desc, wo);
     PyramidBuilder pi(w, false, desc.type);

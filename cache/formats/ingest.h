@@ -36,6 +36,8 @@ struct IngestOptions {
   bool force = false;                 // replace an existing OUT
   // Refused up front (naming IN and the size) when memory_bound() exceeds this; 0: no limit.
   std::uint64_t max_memory = 0;
+  int zarr_format = 2;                // 2: NGFF 0.4 on Zarr v2; 3: NGFF 0.5 on Zarr v3
+  int shard = 0;                      // Zarr v3: shards of shard³ chunks (0: unsharded)
   // Called after every input slab with input bytes read so far and in total (intensity + labels).
   std::function<void(std::uint64_t done, std::uint64_t total)> progress;
 };
@@ -51,8 +53,9 @@ struct IngestResult {
 
 // Pyramid levels the store gets: level 0 and halvings until one chunk holds the level.
 int ingest_levels(ivec3 dims, int chunk);
-// Bytes of the layer buffers (see the header comment) plus one encode chunk per thread.
-std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_type, int chunk);
+// Bytes of the layer buffers (see the header comment) plus one encode chunk per thread; with shards of
+// shard³ chunks, plus the encoded chunks of one layer of shards (counted at their raw size).
+std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_type, int chunk, int shard = 0);
 
 // Writes `out` under a hidden temporary name beside it and renames it only when complete; any failure
 // removes the temporary directory and throws InputError. `out` must not exist unless o.force.

@@ -8,6 +8,7 @@
 #include <cstring>
 #include <limits>
 
+#include "cache/formats/zarr3_codec.h"
 #include "core/error.h"
 #include "core/voxel_dispatch.h"
 
@@ -76,13 +77,16 @@ std::size_t ChunkCache::bytes() const {
 }
 
 ArrayReader::ArrayReader(Multiscale m, std::string store, std::shared_ptr<ChunkCache> cache)
-    : m_(std::move(m)), store_(std::move(store)), cache_(std::move(cache)) {
+    : m_(std::move(m)), store_(std::move(store)), cache_(std::move(cache)),
+      bytes_(std::make_shared<v3::LocalByteStore>(m_.dir.string())),
+      index_cache_(std::make_shared<ChunkCache>(kShardIndexCacheBytes)) {
   SL_CHECK(cache_ != nullptr);
   for (const Level& l : m_.levels) fill_.push_back(make_fill_chunk(l.meta));
 }
 
 ChunkCache::Chunk ArrayReader::chunk(int level, ivec3 c) const {
   const Level& lv = m_.levels[std::size_t(level)];
+  if (lv.meta.v3) return chunk_v3(level, c);
   const std::string rel = lv.meta.chunk_key(c);
   const std::string key = m_.dir.string() + "/" + lv.path + "/" + rel;
   if (ChunkCache::Chunk hit = cache_->get(key)) return hit;
@@ -111,6 +115,27 @@ ChunkCache::Chunk ArrayReader::chunk(int level, ivec3 c) const {
     swap_bytes(out->data(), out->size() / std::size_t(size), size);
   }
   ChunkCache::Chunk result = std::move(out);
+  cache_->put(key, result);
+  return result;
+}
+
+ChunkCache::Chunk ArrayReader::chunk_v3(int level, ivec3 c) const {
+  const Level& lv = m_.levels[std::size_t(level)];
+  std::vector<std::int64_t> g(std::size_t(lv.meta.ndim()), 0);
+  g[g.size() - 3] = c.z;
+  g[g.size() - 2] = c.y;
+  g[g.size() - 1] = c.x;
+  const std::string prefix = m_.dir.string() + "/" + lv.path;
+  const std::string key = prefix + "#" + std::to_string(c.z) + "," + std::to_string(c.y) + "," + std::to_string(c.x);
+  if (ChunkCache::Chunk hit = cache_->get(key)) return hit;
+  std::optional<std::vector<std::byte>> data;
+  try {
+    data = v3::read_chunk(*lv.meta.v3, *bytes_, lv.path + "/", g, *index_cache_, prefix);
+  } catch (const std::runtime_error& e) {
+    throw InputError(store_, level_name(m_, level) + " " + e.what());
+  }
+  if (!data) return fill_[std::size_t(level)];
+  ChunkCache::Chunk result = std::make_shared<const std::vector<std::byte>>(std::move(*data));
   cache_->put(key, result);
   return result;
 }

@@ -11,6 +11,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "cache/formats/zarr3_store.h"
 #include "cache/formats/zarr_meta.h"
 
 namespace sl::zarr {
@@ -44,6 +45,10 @@ class ChunkCache {
 // Default chunk-cache bound of a ZarrVolumeSource: big enough for the chunks a few loader threads
 // touch at once plus neighbours (aprons), small next to the brick cache.
 inline constexpr std::size_t kDefaultChunkCacheBytes = std::size_t(256) << 20;
+// Bound of an ArrayReader's cache of decoded shard indices (Zarr v3), kept apart from the chunks so
+// that neither a chunk-free reader (the in-core load) nor a stream of chunks re-reads an index per
+// inner chunk: 64 MiB holds the indices of 4096 shards of 32³ inner chunks.
+inline constexpr std::size_t kShardIndexCacheBytes = std::size_t(64) << 20;
 
 class ArrayReader {
  public:
@@ -64,9 +69,14 @@ class ArrayReader {
   ChunkCache::Chunk chunk(int level, ivec3 c) const;
 
  private:
+  // Zarr v3: chunk c of the read grid (an inner chunk when sharded) through bytes_ (zarr3_codec.h).
+  ChunkCache::Chunk chunk_v3(int level, ivec3 c) const;
+
   Multiscale m_;
   std::string store_;
   std::shared_ptr<ChunkCache> cache_;
+  std::shared_ptr<const v3::ByteStore> bytes_;  // v3 levels read through it (a local directory today)
+  std::shared_ptr<ChunkCache> index_cache_;     // v3 shard indices
   std::vector<ChunkCache::Chunk> fill_;  // per level: a chunk of the fill value
 };
 

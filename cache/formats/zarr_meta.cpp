@@ -5,6 +5,8 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "cache/formats/zarr3_codec.h"
+#include "cache/formats/zarr3_meta.h"
 #include "core/error.h"
 #include "core/json_util.h"
 
@@ -71,7 +73,7 @@ std::vector<std::int64_t> int_list(const json& j, const char* key) {
 ArrayMeta parse_array(const json& j) {
   if (!j.is_object()) throw std::runtime_error(".zarray is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 2) {
-    throw std::runtime_error("zarr_format must be 2 (Zarr v3 stores are not supported)");
+    throw std::runtime_error("zarr_format must be 2 in a .zarray (Zarr v3 arrays keep their metadata in zarr.json)");
   }
   ArrayMeta m;
   m.shape = int_list(j, "shape");
@@ -172,16 +174,37 @@ void check_axes(const json& ms, std::size_t ndim) {
   }
 }
 
+// Zarr v3: named dimensions must agree with the last three axes (z, y, x) and with NGFF 0.5's axes,
+// since both name the same array axes.
+void check_dimension_names(const ArrayMeta& m, const json* ms) {
+  const std::size_t nd = m.dimension_names.size();
+  for (std::size_t i = 0; i < nd; ++i) {
+    const std::string& n = m.dimension_names[i];
+    if (n.empty()) continue;
+    if (i + 3 >= nd && n != std::string(1, "zyx"[i + 3 - nd])) {
+      throw std::runtime_error("dimension_names " + std::to_string(i) + " is '" + n + "' where '" + "zyx"[i + 3 - nd] +
+                               "' belongs (the last three axes must be z, y, x)");
+    }
+    if (ms && ms->contains("axes") && (*ms)["axes"].is_array() && i < (*ms)["axes"].size()) {
+      const json& a = (*ms)["axes"][i];
+      const std::string an = a.is_string() ? a.get<std::string>() : a.is_object() ? a.value("name", "") : "";
+      if (an != n) throw std::runtime_error("dimension_names '" + n + "' differs from multiscales axis '" + an + "'");
+    }
+  }
+}
+
 Level read_level(const fs::path& group, const std::string& path, const std::string& store, const std::string& what,
-                 const std::string& level_label) {
+                 const std::string& level_label, bool v3, const json* ms) {
   Level lv;
   lv.path = path;
   const std::string where = level_label + " (" + array_label(what, path) + "): ";
-  const fs::path zarray = group / path / ".zarray";
-  if (!fs::exists(zarray)) throw InputError(store, where + "missing .zarray");
-  const json j = read_json(zarray, store, where);
+  const char* name = v3 ? "zarr.json" : ".zarray";
+  const fs::path file = group / path / name;
+  if (!fs::exists(file)) throw InputError(store, where + "missing " + name);
+  const json j = read_json(file, store, where);
   try {
-    lv.meta = parse_array(j);
+    lv.meta = v3 ? v3::parse_array(j) : parse_array(j);
+    check_dimension_names(lv.meta, ms);
   } catch (const std::runtime_error& e) {
     throw InputError(store, where + e.what());
   }
@@ -209,6 +232,8 @@ std::string ArrayMeta::chunk_key(ivec3 c) const {
   for (int i = 0; i < ndim() - 3; ++i) k += std::string("0") + separator;
   return k + std::to_string(c.z) + separator + std::to_string(c.y) + separator + std::to_string(c.x);
 }
+
+std::string describe(const ArrayMeta& m) { return m.v3 ? m.v3->describe() : describe(m.compressor); }
 
 std::string dtype_string(VoxelType t) {
   switch (t) {
@@ -246,49 +271,73 @@ Multiscale open_multiscale(const fs::path& dir, const std::string& store, const 
   const std::string gwhere = what.empty() ? "" : "group '" + what + "': ";
   if (!fs::is_directory(dir)) throw InputError(store, gwhere + "not a directory");
   std::vector<std::vector<double>> scales;
-  if (fs::exists(dir / ".zattrs")) {
-    const json attrs = read_json(dir / ".zattrs", store, gwhere);
-    if (attrs.is_object() && attrs.contains("multiscales")) {
-      try {
-        const json& mss = attrs["multiscales"];
-        if (!mss.is_array() || mss.empty() || !mss[0].is_object()) {
-          throw std::runtime_error("\"multiscales\" must be a non-empty list of objects");
-        }
-        const json& ms = mss[0];  // NGFF: the first multiscale is the one to use by default
-        if (!ms.contains("datasets") || !ms["datasets"].is_array() || ms["datasets"].empty()) {
-          throw std::runtime_error("multiscales has no \"datasets\"");
-        }
-        for (const json& d : ms["datasets"]) {
-          if (!d.is_object() || !d.contains("path") || !d["path"].is_string()) {
-            throw std::runtime_error("every dataset needs a string \"path\"");
-          }
-          m.levels.push_back({d["path"].get<std::string>(), {}, ivec3(0), vec3(1.0f)});
-        }
-        if (m.levels.size() > 15) throw std::runtime_error("more than 15 levels");
-        for (std::size_t l = 0; l < m.levels.size(); ++l) {
-          Level& lv = m.levels[l];
-          const std::string label = "level " + std::to_string(l);
-          lv = read_level(dir, lv.path, store, what, label);
-          if (l == 0) check_axes(ms, lv.meta.shape.size());
-          std::vector<double> s = scale_of(ms["datasets"][l], lv.meta.shape.size());
-          const std::vector<double> global = scale_of(ms, lv.meta.shape.size());
-          if (!s.empty() && !global.empty()) {
-            for (std::size_t i = 0; i < s.size(); ++i) s[i] *= global[i];
-          }
-          scales.push_back(s);
-          if (!s.empty()) lv.scale = xyz_of(s);
-        }
-      } catch (const std::runtime_error& e) {
-        if (dynamic_cast<const InputError*>(&e)) throw;
-        throw InputError(store, gwhere + "multiscales: " + e.what());
-      }
+  // Zarr v3: a zarr.json group whose NGFF 0.5 metadata sits in attributes.ome, or a bare array.
+  const bool v3 = fs::exists(dir / "zarr.json");
+  bool bare_v3_array = false;
+  json attrs;
+  if (v3) {
+    const json node = read_json(dir / "zarr.json", store, gwhere);
+    if (!node.is_object() || !node.contains("zarr_format") || node["zarr_format"] != 3) {
+      throw InputError(store, gwhere + "zarr.json: zarr_format must be 3");
     }
+    const std::string type = node.value("node_type", std::string());
+    if (type == "array") {
+      bare_v3_array = true;
+    } else if (type != "group") {
+      throw InputError(store, gwhere + "zarr.json: node_type must be \"group\" or \"array\"");
+    } else if (node.contains("attributes") && node["attributes"].is_object() && node["attributes"].contains("ome")) {
+      attrs = node["attributes"]["ome"];
+    }
+  } else if (fs::exists(dir / ".zattrs")) {
+    attrs = read_json(dir / ".zattrs", store, gwhere);
+  }
+  if (attrs.is_object() && attrs.contains("multiscales")) {
+    try {
+      const json& mss = attrs["multiscales"];
+      if (!mss.is_array() || mss.empty() || !mss[0].is_object()) {
+        throw std::runtime_error("\"multiscales\" must be a non-empty list of objects");
+      }
+      const json& ms = mss[0];  // NGFF: the first multiscale is the one to use by default
+      if (!ms.contains("datasets") || !ms["datasets"].is_array() || ms["datasets"].empty()) {
+        throw std::runtime_error("multiscales has no \"datasets\"");
+      }
+      for (const json& d : ms["datasets"]) {
+        if (!d.is_object() || !d.contains("path") || !d["path"].is_string()) {
+          throw std::runtime_error("every dataset needs a string \"path\"");
+        }
+        m.levels.push_back({d["path"].get<std::string>(), {}, ivec3(0), vec3(1.0f)});
+      }
+      if (m.levels.size() > 15) throw std::runtime_error("more than 15 levels");
+      for (std::size_t l = 0; l < m.levels.size(); ++l) {
+        Level& lv = m.levels[l];
+        const std::string label = "level " + std::to_string(l);
+        lv = read_level(dir, lv.path, store, what, label, v3, &ms);
+        if (l == 0) check_axes(ms, lv.meta.shape.size());
+        std::vector<double> s = scale_of(ms["datasets"][l], lv.meta.shape.size());
+        const std::vector<double> global = scale_of(ms, lv.meta.shape.size());
+        if (!s.empty() && !global.empty()) {
+          for (std::size_t i = 0; i < s.size(); ++i) s[i] *= global[i];
+        }
+        scales.push_back(s);
+        if (!s.empty()) lv.scale = xyz_of(s);
+      }
+    } catch (const std::runtime_error& e) {
+      if (dynamic_cast<const InputError*>(&e)) throw;
+      throw InputError(store, gwhere + "multiscales: " + e.what());
+    }
+  }
+  if (m.levels.empty() && v3) {
+    if (!bare_v3_array) {
+      throw InputError(store, gwhere + "zarr.json is a group without attributes.ome.multiscales: not an image store");
+    }
+    m.levels.push_back(read_level(dir, ".", store, what, "level 0", true, nullptr));
+    scales.emplace_back();
   }
   if (m.levels.empty()) {
     if (!fs::exists(dir / ".zarray")) {
       throw InputError(store, gwhere + "no OME-Zarr multiscales in .zattrs and no .zarray: not an image store");
     }
-    m.levels.push_back(read_level(dir, ".", store, what, "level 0"));
+    m.levels.push_back(read_level(dir, ".", store, what, "level 0", false, nullptr));
     scales.emplace_back();
   }
   // Each level must be a 2x reduction of the one before (DESIGN.md §3), of the same dtype.
@@ -341,14 +390,22 @@ StoreInfo open_store(const std::string& path) {
   if (!fs::is_directory(dir)) throw InputError(path, "a Zarr store must be a directory");
   s.image = open_multiscale(dir, path, "");
   const fs::path ldir = dir / "labels";
-  if (fs::exists(ldir / ".zattrs")) {
-    const json j = read_json(ldir / ".zattrs", path, "group 'labels': ");
-    if (j.is_object() && j.contains("labels")) {
-      if (!j["labels"].is_array()) throw InputError(path, "group 'labels': \"labels\" must be a list of names");
-      for (const json& n : j["labels"]) {
-        if (!n.is_string()) throw InputError(path, "group 'labels': \"labels\" must be a list of names");
-        s.label_names.push_back(n.get<std::string>());
-      }
+  json j;
+  if (fs::exists(ldir / "zarr.json")) {
+    // NGFF 0.5: the label names sit in the labels group's attributes.ome.
+    const json node = read_json(ldir / "zarr.json", path, "group 'labels': ");
+    if (node.is_object() && node.contains("attributes") && node["attributes"].is_object() &&
+        node["attributes"].contains("ome")) {
+      j = node["attributes"]["ome"];
+    }
+  } else if (fs::exists(ldir / ".zattrs")) {
+    j = read_json(ldir / ".zattrs", path, "group 'labels': ");
+  }
+  if (j.is_object() && j.contains("labels")) {
+    if (!j["labels"].is_array()) throw InputError(path, "group 'labels': \"labels\" must be a list of names");
+    for (const json& n : j["labels"]) {
+      if (!n.is_string()) throw InputError(path, "group 'labels': \"labels\" must be a list of names");
+      s.label_names.push_back(n.get<std::string>());
     }
   }
   if (!s.label_names.empty()) {
@@ -370,7 +427,8 @@ bool is_zarr_path(const std::string& path) {
   std::error_code ec;
   const fs::path d(p);
   return fs::is_directory(d, ec) &&
-         (fs::exists(d / ".zattrs", ec) || fs::exists(d / ".zgroup", ec) || fs::exists(d / ".zarray", ec));
+         (fs::exists(d / ".zattrs", ec) || fs::exists(d / ".zgroup", ec) || fs::exists(d / ".zarray", ec) ||
+          fs::exists(d / "zarr.json", ec));
 }
 
 }  // namespace sl::zarr

@@ -1,6 +1,7 @@
 #include "cache/formats/zarr_source.h"
 
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
 
@@ -107,11 +108,13 @@ ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& l
     labels_ = std::make_unique<zarr::ArrayReader>(*info.labels, path, cache_);
   }
   if (labels_) {
-    const auto attrs = labels_->multiscale().dir / ".zattrs";
-    std::ifstream f(attrs);
+    // Zarr v2 keeps a group's attributes in .zattrs, v3 in zarr.json's "attributes".
+    const bool v3 = std::filesystem::exists(labels_->multiscale().dir / "zarr.json");
+    std::ifstream f(labels_->multiscale().dir / (v3 ? "zarr.json" : ".zattrs"));
     if (f) {
       try {
-        const nlohmann::json j = nlohmann::json::parse(f);
+        const nlohmann::json node = nlohmann::json::parse(f);
+        const nlohmann::json& j = v3 && node.contains("attributes") ? node["attributes"] : node;
         if (j.contains("sparseleap") && j["sparseleap"].contains("max_label")) {
           max_label_attr_ = j["sparseleap"]["max_label"].get<std::uint32_t>();
           has_max_label_attr_ = true;

@@ -1,14 +1,16 @@
-// Writing an OME-Zarr store (NGFF 0.4, Zarr v2): the root group with its multiscales metadata, one
+// Writing an OME-Zarr store (NGFF 0.4 on Zarr v2, or NGFF 0.5 on Zarr v3, optionally sharded): the root group with its multiscales metadata, one
 // array per level ("0", "1", ...), and optionally an NGFF label image under labels/labels/. Chunks
 // are written slab by slab (a layer of chunks along z at a time); chunks that hold only the fill
 // value (0) are not written, which Zarr readers take as the fill value (sparse data stay small).
 // The writer creates the files but does not make the store appear: ingest.h writes into a temporary
-// directory and renames it when complete.
+// directory and renames it when complete. A sharded v3 level keeps the encoded inner chunks of one
+// layer of shards (shard chunk layers) until the layer is complete, then writes each shard whole.
 #pragma once
 
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -22,6 +24,8 @@ struct WriterOptions {
   Compressor compressor;
   int levels = 1;
   std::optional<VoxelType> label_type;  // write labels/labels/ too
+  int zarr_format = 2;                  // 2 (NGFF 0.4) or 3 (NGFF 0.5)
+  int shard = 0;                        // v3: shard edge in chunks (0: unsharded)
 };
 
 class StoreWriter {
@@ -44,12 +48,17 @@ class StoreWriter {
  private:
   void write_file(const std::filesystem::path& p, const void* data, std::size_t n) const;
   void write_group(const std::filesystem::path& group, const std::string& name, bool labels) const;
+  void write_json(const std::filesystem::path& p, const std::string& text) const;
+  std::filesystem::path attrs_file(const std::filesystem::path& group) const;
 
   std::filesystem::path dir_;
   std::string who_;
   VolumeDesc desc_;
   WriterOptions o_;
   mutable std::atomic<std::uint64_t> bytes_written_{0};
+  // Sharded v3: per (labels, level), the encoded inner chunks of the current layer of shards, indexed
+  // [shard (y, x)][inner chunk (z, y, x)].
+  std::map<std::pair<bool, int>, std::vector<std::vector<std::optional<std::vector<std::byte>>>>> pending_;
 };
 
 }  // namespace sl::zarr

@@ -37,6 +37,28 @@ inline int run_peer(const std::string& args, std::string* out = nullptr) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
+// The Zarr v3 peer (tests/data_tools/zarr3_tool.py): zarr-python 3 in the virtual environment that
+// scripts/setup makes, since Debian ships only zarr-python 2.
+inline std::string peer3_python() { return std::string(SL_SOURCE_DIR) + "/.venv-peers/bin/python"; }
+
+inline bool peer3_available() {
+  const std::string cmd = peer3_python() + " -c 'import zarr, numcodecs, crc32c; assert int(zarr.__version__.split(\".\")[0]) >= 3'"
+                          " >/dev/null 2>&1";
+  return std::system(cmd.c_str()) == 0;
+}
+
+inline int run_peer3(const std::string& args, std::string* out = nullptr) {
+  const std::string cmd = peer3_python() + " " + SL_SOURCE_DIR + "/tests/data_tools/zarr3_tool.py " + args + " 2>&1";
+  std::string text;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return -1;
+  char buf[4096];
+  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
+  const int status = pclose(p);
+  if (out) *out = text;
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
 inline std::vector<std::byte> read_bytes(const std::filesystem::path& p) {
   std::ifstream f(p, std::ios::binary);
   std::vector<char> c((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
@@ -54,4 +76,12 @@ inline std::vector<std::byte> read_bytes(const std::filesystem::path& p) {
       SL_SKIP_OR_FAIL("/usr/bin/python3 cannot import " + std::string(modules) +                     \
                       " (install python3-zarr python3-numcodecs python3-tifffile python3-nibabel)"); \
     }                                                                                                \
+  } while (0)
+
+// Skips (fails under CI) when the zarr-python 3 peer is missing.
+#define SL_REQUIRE_PEER3()                                                                              \
+  do {                                                                                                  \
+    if (!::sl::test::peer3_available()) {                                                               \
+      SL_SKIP_OR_FAIL(::sl::test::peer3_python() + " cannot import zarr>=3, numcodecs, crc32c (run scripts/setup)"); \
+    }                                                                                                   \
   } while (0)
