@@ -27,14 +27,9 @@ inline bool python_has(const std::string& modules) {
 inline int run_peer(const std::string& args, std::string* out = nullptr) {
   const std::string cmd = std::string(kPeerPython) + " " + SL_SOURCE_DIR + "/tests/data_tools/zarr_tool.py " + args +
                           " 2>&1";
-  std::string text;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  char buf[4096];
-  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
-  const int status = pclose(p);
-  if (out) *out = text;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const test::RunResult r = test::run_shell(cmd);
+  if (out) *out = r.output;
+  return r.exit_code;
 }
 
 // The Zarr v3 peer (tests/data_tools/zarr3_tool.py): zarr-python 3 in the virtual environment that
@@ -49,14 +44,9 @@ inline bool peer3_available() {
 
 inline int run_peer3(const std::string& args, std::string* out = nullptr) {
   const std::string cmd = peer3_python() + " " + SL_SOURCE_DIR + "/tests/data_tools/zarr3_tool.py " + args + " 2>&1";
-  std::string text;
-  FILE* p = popen(cmd.c_str(), "r");
-  if (!p) return -1;
-  char buf[4096];
-  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, p)) > 0;) text.append(buf, n);
-  const int status = pclose(p);
-  if (out) *out = text;
-  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  const test::RunResult r = test::run_shell(cmd);
+  if (out) *out = r.output;
+  return r.exit_code;
 }
 
 inline std::vector<std::byte> read_bytes(const std::filesystem::path& p) {
