@@ -13,12 +13,19 @@
 #include "apps/outputs.h"
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
+#include "cache/formats/counting_byte_store.h"
 #include "core/atomic_file.h"
 #include "core/camera_path.h"
 #include "core/error.h"
 #include "core/parallel.h"
+#include "core/process_memory.h"
+#if SL_HAVE_MPI
+#include "apps/distributed.h"
+#endif
 
 namespace sl::app {
+
+class Distributed;  // apps/distributed.h (SL_MPI builds)
 
 namespace {
 
@@ -34,7 +41,39 @@ struct BenchOptions {
   bool warmup_given = false;  // out of core the default is 0: a view's cold start is what it measures
   std::string csv, json;
   int max_frames_per_view = 40;
+  std::string path_kind = "orbit";  // generated path: orbit, orbit-zoom, zoom-in
+  bool path_kind_given = false;
+  std::string rss_at;               // out of core: frame numbers (1-based, per method) to report RSS at
+  int max_frames = 0;               // out of core: frames per method at most (0: the whole path)
 };
+
+// `--rss-at 100,1000,2000`: ascending frame numbers >= 1.
+std::vector<int> parse_frame_list(const std::string& s) {
+  std::vector<int> out;
+  std::stringstream ss(s);
+  std::string item;
+  while (std::getline(ss, item, ',')) {
+    std::size_t end = 0;
+    int v = 0;
+    try {
+      v = std::stoi(item, &end);
+    } catch (const std::exception&) {
+      end = 0;
+    }
+    if (end == 0 || end != item.size() || v < 1) throw InputError("--rss-at", "expected frame numbers >= 1, e.g. 100,1000,2000");
+    out.push_back(v);
+  }
+  std::sort(out.begin(), out.end());
+  out.erase(std::unique(out.begin(), out.end()), out.end());
+  return out;
+}
+
+CameraPath generated_path(const std::string& kind, const vec3& extent, int frames) {
+  if (kind == "orbit") return orbit_path(extent, frames);
+  if (kind == "orbit-zoom") return orbit_zoom_path(extent, frames);
+  if (kind == "zoom-in") return zoom_in_path(extent, frames);
+  throw InputError("--path-kind", "expected orbit, orbit-zoom or zoom-in, not '" + kind + "'");
+}
 
 struct FrameRecord {
   int frame = 0;
@@ -114,84 +153,203 @@ struct BenchRun {
   Backend backend;
   RenderSettings rs;
   OutputFiles& outputs;  // --csv, --json: checked before the run
+  Distributed* dist = nullptr;  // --distributed: this rank's share of the job
   const LabelSet* enabled() const { return scene.enabled ? &*scene.enabled : nullptr; }
   std::unique_ptr<SceneRenderer> renderer() const {
-    return std::make_unique<SceneRenderer>(scene, o.render, checked, backend);
+    auto r = std::make_unique<SceneRenderer>(scene, o.render, checked, backend);
+#if SL_HAVE_MPI
+    if (dist) {
+      const CullParams cull{rs.mode, &scene.tf, rs.iso, enabled()};
+      OutOfCoreRenderer& ooc = *r->out_of_core();
+      ooc.set_sample_clip(dist->balance(*scene.source, ooc.layout(), rs.block, cull).clip);
+    }
+#endif
+    return r;
+  }
+  // One frame of `camera`: distributed, every rank's region composited (rank 0 holds the image).
+  // `next`: the view expected next (prefetch along the motion).
+  Frame render(SceneRenderer& r, const Camera& camera, const Camera* next = nullptr) const {
+    Frame f = r.render(scene.tf, enabled(), camera, rs, next);
+#if SL_HAVE_MPI
+    if (dist) f = dist->composite(std::move(f), view_point(make_ray_generator(camera, rs.width, rs.height)));
+#endif
+    return f;
+  }
+  // Nothing left to load or resolve (distributed: on every rank).
+  bool converged(const SceneRenderer& r) const {
+    const bool c = r.out_of_core()->converged();
+#if SL_HAVE_MPI
+    if (dist) return dist->all(c);
+#endif
+    return c;
   }
 };
 
 // The CSV and JSON reports (those asked for), as one set: a failing second one removes the first.
 void write_reports(BenchRun& b, const std::string& csv, const std::string& json) {
+#if SL_HAVE_MPI
+  if (b.dist && !b.dist->root()) return;
+#endif
   if (!b.o.csv.empty()) b.outputs.write(b.o.csv, [&](const std::string& p) { write_file_atomic(p, csv); });
   if (!b.o.json.empty()) b.outputs.write(b.o.json, [&](const std::string& p) { write_file_atomic(p, json); });
 }
 
-// Out of core: per method, a fresh cache renders every view of the path until it converges (no
-// nothing left to load or resolve) or --max-frames-per-view; reports frames to convergence per view,
-// loads, completeness, tree and page-table size.
+// Out of core: per method, a fresh cache renders every view of the path until it converges (nothing
+// left to load or resolve) or --max-frames-per-view; reports frames and milliseconds to convergence
+// per view, loads, stalls (frames with loads pending and none made), completeness, prefetch, tree and
+// page-table size, and the process's RSS at the --rss-at frames.
 int bench_out_of_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
   const BenchOptions& o = b.o;
   const OutOfCoreSettings os = out_of_core_settings(o.render);
-  std::printf("bench (out of core): %s, %dx%d, %d views x %zu methods, cache %zu MB, brick %d\n", b.scene.name.c_str(),
-              b.rs.width, b.rs.height, b.path.frames, b.methods.size(), os.cache_mb, os.brick);
+  const std::vector<int> rss_at = parse_frame_list(o.rss_at);
+  std::printf("bench (out of core): %s, %dx%d, %d views x %zu methods, cache %zu MB, brick %d, prefetch %s\n",
+              b.scene.name.c_str(), b.rs.width, b.rs.height, b.path.frames, b.methods.size(), os.cache_mb, os.brick,
+              os.prefetch ? "on" : "off");
   nlohmann::json js;
   js["volume"] = b.scene.name;
+  js["prefetch"] = os.prefetch;
   std::ostringstream csv;
   csv << "method,view,frame,total_ms,raycast_ms,lists_ms,loads,hits,misses,hit_rate,pending,resident_mb,"
-         "tree_nodes,page_table_kb,samples,completeness,lod_coarsened,bricks_missing\n";
+         "tree_nodes,tree_bytes,page_table_bytes,samples,completeness,lod_coarsened,bricks_missing,failed,"
+         "bricks_retried,retries,recovered,prefetched,prefetch_hits,stall\n";
   for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
     const char* method = to_string(b.methods[mi]);
     b.rs.method = b.methods[mi];
     std::unique_ptr<SceneRenderer> renderer = mi == 0 ? std::move(first) : b.renderer();
-    for (int w = 0; w < b.warmup; ++w) renderer->render(b.scene.tf, b.enabled(), b.path.at(0), b.rs);
-    std::printf("%s\n%5s %9s %12s %10s %11s %10s %12s %11s\n", method, "view", "frames", "converged ms", "loads",
-                "resident MB", "tree nodes", "page table KB", "samples");
+    // Warm-up frames wait for their loads (each rank its own: no collective), so what a warm start
+    // holds does not depend on how the loader threads were scheduled.
+    for (int w = 0; w < b.warmup; ++w) {
+      b.render(*renderer, b.path.at(0));
+      if (OutOfCoreRenderer* ooc = renderer->out_of_core()) ooc->wait_for_loads();
+    }
+    std::printf("%s\n%5s %9s %10s %12s %10s %11s %10s %12s %11s\n", method, "view", "frames", "to conv ms",
+                "converged ms", "loads", "resident MB", "tree KB", "page table KB", "samples");
     nlohmann::json& jm = js["methods"][method];
     jm["views"] = nlohmann::json::array();
-    std::vector<double> conv_ms;
-    int unconverged = 0;
-    std::uint64_t total_loads = 0, total_frames = 0;
+    std::vector<double> conv_ms, to_conv_ms;
+    int unconverged = 0, views_done = 0;
+    std::uint64_t total_loads = 0, total_frames = 0, stall_frames = 0, prefetched = 0, prefetch_hits = 0;
+    int stall_run = 0, longest_stall = 0;
+    std::size_t next_rss = 0;
+    nlohmann::json rss = nlohmann::json::object(), rss_cache = nlohmann::json::object();
+    Frame f;
     for (int v = 0; v < b.path.frames; ++v) {
-      Frame f;
+      if (o.max_frames > 0 && total_frames >= std::uint64_t(o.max_frames)) break;
+      const Camera camera = b.path.at(v);
+      // The next view extrapolated from the motion so far (as a viewer would: it does not know the path).
+      const Camera next = v > 0 ? extrapolate_camera(b.path.at(v - 1), camera) : camera;
       int n = 0;
-      std::uint64_t loads = 0;
-      double first_hit_rate = 1.0;
+      std::uint64_t loads = 0, view_stalls = 0, view_prefetched = 0, view_prefetch_hits = 0;
+      double first_hit_rate = 1.0, ms = 0.0;
+      bool cut = false;  // --max-frames reached before the view converged
       while (n < o.max_frames_per_view) {
-        f = renderer->render(b.scene.tf, b.enabled(), b.path.at(v), b.rs);
+        f = b.render(*renderer, camera, v > 0 ? &next : nullptr);
         ++n;
-        loads += f.stats.cache.loads;
+        ++total_frames;
+        ms += f.stats.time_ms.total;
+        const CacheStats& c = f.stats.cache;
+        loads += c.loads;
+        view_prefetched += c.prefetched;
+        view_prefetch_hits += c.prefetch_hits;
+        // A stall (issue 14's "0 loads with bricks pending"): the frame began with its own loads in
+        // flight and made none resident. Without waiting for the loader a single one can be latency;
+        // a run of them that does not end is the stall the issue saw.
+        const bool stall = c.stall;
+        view_stalls += stall ? 1 : 0;
+        stall_run = stall ? stall_run + 1 : 0;
+        longest_stall = std::max(longest_stall, stall_run);
         if (n == 1) first_hit_rate = hit_rate(f.stats);
         csv << method << ',' << v << ',' << n << ',' << f.stats.time_ms.total << ',' << f.stats.time_ms.raycast << ','
-            << f.stats.time_ms.lists << ',' << f.stats.cache.loads << ',' << f.stats.cache.hits << ','
-            << f.stats.cache.misses << ',' << hit_rate(f.stats) << ',' << f.stats.cache.pending << ','
-            << f.stats.cache.resident_mb << ',' << f.stats.tree_nodes << ',' << f.stats.cache.page_table_kb << ','
-            << f.stats.samples << ',' << f.stats.cache.completeness << ',' << f.stats.cache.lod_coarsened << ','
-            << f.stats.cache.bricks_missing << '\n';
-        if (renderer->out_of_core()->converged()) break;
+            << f.stats.time_ms.lists << ',' << c.loads << ',' << c.hits << ',' << c.misses << ',' << hit_rate(f.stats)
+            << ',' << c.pending << ',' << c.resident_mb << ',' << f.stats.tree_nodes << ',' << f.stats.tree_bytes << ','
+            << c.page_table_bytes << ',' << f.stats.samples << ',' << c.completeness << ',' << c.lod_coarsened << ','
+            << c.bricks_missing << ',' << c.failed << ',' << c.bricks_retried << ',' << c.retries << ',' << c.recovered
+            << ',' << c.prefetched << ',' << c.prefetch_hits << ',' << (stall ? 1 : 0) << '\n';
+        while (next_rss < rss_at.size() && std::uint64_t(rss_at[next_rss]) == total_frames) {
+          const double mb = resident_mb();
+          rss[std::to_string(rss_at[next_rss])] = mb;
+          rss_cache[std::to_string(rss_at[next_rss])] = c.resident_mb;
+          // The brick cache fills up to its budget; what is not the cache must stay flat.
+          std::printf("  RSS at frame %d: %.1f MB (brick cache %.1f MB resident; page table %.1f KB, tree %.1f KB, "
+                      "%llu tree nodes, metadata for %llu blocks in %.1f KB)\n",
+                      rss_at[next_rss], mb, c.resident_mb, double(c.page_table_bytes) / 1024.0,
+                      double(f.stats.tree_bytes) / 1024.0, (unsigned long long)f.stats.tree_nodes,
+                      (unsigned long long)f.stats.metadata_blocks, double(f.stats.metadata_bytes) / 1024.0);
+          ++next_rss;
+        }
+        if (b.converged(*renderer)) break;
+        if (o.max_frames > 0 && total_frames >= std::uint64_t(o.max_frames)) {
+          cut = true;
+          break;
+        }
       }
       total_loads += loads;
-      total_frames += std::uint64_t(n);
-      const bool ok = renderer->out_of_core()->converged();
-      unconverged += ok ? 0 : 1;
-      if (ok) conv_ms.push_back(f.stats.time_ms.total);
-      std::printf("%5d %9s %12.1f %10llu %11.1f %10llu %12.1f %11llu\n", v,
-                  ok ? std::to_string(n).c_str() : (">" + std::to_string(n)).c_str(), f.stats.time_ms.total,
-                  (unsigned long long)loads, f.stats.cache.resident_mb, (unsigned long long)f.stats.tree_nodes,
-                  f.stats.cache.page_table_kb, (unsigned long long)f.stats.samples);
-      jm["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"converged_frame_ms", f.stats.time_ms.total},
-                             {"loads", loads}, {"resident_mb", f.stats.cache.resident_mb},
-                             {"tree_nodes", f.stats.tree_nodes}, {"page_table_kb", f.stats.cache.page_table_kb},
+      stall_frames += view_stalls;
+      prefetched += view_prefetched;
+      prefetch_hits += view_prefetch_hits;
+      ++views_done;
+      const bool ok = b.converged(*renderer);
+      unconverged += ok || cut ? 0 : 1;
+      if (ok) {
+        conv_ms.push_back(f.stats.time_ms.total);
+        to_conv_ms.push_back(ms);
+      }
+      const CacheStats& c = f.stats.cache;
+      std::printf("%5d %9s %10.1f %12.1f %10llu %11.1f %10.1f %12.1f %11llu%s\n", v,
+                  ok ? std::to_string(n).c_str() : (">" + std::to_string(n)).c_str(), ms, f.stats.time_ms.total,
+                  (unsigned long long)loads, c.resident_mb, double(f.stats.tree_bytes) / 1024.0,
+                  double(c.page_table_bytes) / 1024.0, (unsigned long long)f.stats.samples,
+                  cut ? " (cut by --max-frames)" : "");
+      jm["views"].push_back({{"frames_to_converge", ok ? n : -1}, {"ms_to_converge", ok ? ms : -1.0},
+                             {"converged_frame_ms", f.stats.time_ms.total}, {"loads", loads},
+                             {"stall_frames", view_stalls}, {"prefetched", view_prefetched},
+                             {"prefetch_hits", view_prefetch_hits}, {"resident_mb", c.resident_mb},
+                             {"tree_nodes", f.stats.tree_nodes}, {"tree_bytes", f.stats.tree_bytes},
+                             {"page_table_bytes", c.page_table_bytes},
                              {"samples", f.stats.samples}, {"first_frame_hit_rate", first_hit_rate},
-                             {"completeness", f.stats.cache.completeness},
-                             {"lod_coarsened", f.stats.cache.lod_coarsened},
-                             {"bricks_missing", f.stats.cache.bricks_missing}});
+                             {"completeness", c.completeness},
+                             {"lod_coarsened", c.lod_coarsened},
+                             {"bricks_missing", c.bricks_missing}, {"failed", c.failed},
+                             {"bricks_retried", c.bricks_retried}, {"retries", c.retries},
+                             {"recovered", c.recovered}});
+      if (cut) jm["views"].back()["cut_by_max_frames"] = true;
+#if SL_HAVE_MPI
+      if (b.dist) jm["views"].back()["distributed"] = nlohmann::json::parse(b.dist->stats_json(f.stats))["distributed"];
+#endif
     }
+    double sum_ms = 0;
+    for (double x : to_conv_ms) sum_ms += x;
     const double per_frame = total_frames ? double(total_loads) / double(total_frames) : 0.0;
     jm["median_converged_frame_ms"] = percentile(conv_ms, 0.5);
+    jm["median_ms_to_converge"] = percentile(to_conv_ms, 0.5);
+    jm["total_ms_to_converge"] = sum_ms;
+    jm["frames"] = total_frames;
+    jm["views_rendered"] = views_done;
     jm["loads_per_frame"] = per_frame;
     jm["unconverged_views"] = unconverged;
-    std::printf("%s: median converged frame %.1f ms, %.1f loads per frame, %d views did not converge\n", method,
-                percentile(conv_ms, 0.5), per_frame, unconverged);
+    jm["stall_frames"] = stall_frames;
+    jm["longest_stall_frames"] = longest_stall;
+    jm["prefetched"] = prefetched;
+    jm["prefetch_hits"] = prefetch_hits;
+    jm["rss_mb_at_frame"] = rss;
+    jm["cache_resident_mb_at_frame"] = rss_cache;
+    jm["page_table_bytes"] = f.stats.cache.page_table_bytes;
+    jm["tree_bytes"] = f.stats.tree_bytes;
+    jm["metadata_blocks"] = f.stats.metadata_blocks;
+    jm["metadata_bytes"] = f.stats.metadata_bytes;
+    std::printf("%s: %llu frames, %d views, median converged frame %.1f ms, to convergence median %.1f ms "
+                "(all views %.1f ms), %.1f loads per frame, %d views did not converge, %llu stall frames "
+                "(longest run %d), prefetched %llu (hits %llu), page table %.1f KB, tree %.1f KB\n",
+                method, (unsigned long long)total_frames, views_done, percentile(conv_ms, 0.5),
+                percentile(to_conv_ms, 0.5), sum_ms, per_frame, unconverged, (unsigned long long)stall_frames,
+                longest_stall, (unsigned long long)prefetched, (unsigned long long)prefetch_hits,
+                double(f.stats.cache.page_table_bytes) / 1024.0, double(f.stats.tree_bytes) / 1024.0);
+    for (; next_rss < rss_at.size(); ++next_rss) {
+      std::printf("  RSS at frame %d: not reached (%llu frames)\n", rss_at[next_rss], (unsigned long long)total_frames);
+    }
+#if SL_HAVE_MPI
+    if (b.dist) std::printf("%s (last frame)\n", b.dist->summary().c_str());
+#endif
   }
   write_reports(b, csv.str(), js.dump(2) + "\n");
   return 0;
@@ -280,7 +438,7 @@ int bench_in_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
   return 0;
 }
 
-int run_bench(const BenchOptions& o) {
+int bench(const BenchOptions& o, Distributed* dist) {
   const RenderOptions& ro = o.render;
   const CheckedOptions checked = check_render_options(ro);
   const bool ooc = ro.out_of_core();
@@ -295,6 +453,13 @@ int run_bench(const BenchOptions& o) {
   if (o.max_frames_per_view < 1 || o.max_frames_per_view > 100000) {
     throw InputError("--max-frames-per-view", "must be between 1 and 100000");
   }
+  if (o.max_frames < 0) throw InputError("--max-frames", "must be 0 (no limit) or a number of frames");
+  if (!o.path.empty() && o.path_kind_given) throw InputError("--path-kind", "generates a path: not with --path");
+  generated_path(o.path_kind, vec3(1.0f), 1);  // checks the kind before any data load
+  parse_frame_list(o.rss_at);
+  if (!ooc && (!o.rss_at.empty() || o.max_frames > 0)) {
+    throw InputError(o.rss_at.empty() ? "--max-frames" : "--rss-at", "out of core only (add --cache-mb)");
+  }
   OutputFiles outputs;
   if (!o.csv.empty()) outputs.add(o.csv);
   if (!o.json.empty()) outputs.add(o.json);
@@ -303,14 +468,30 @@ int run_bench(const BenchOptions& o) {
   const SourceScene scene = load_source_scene(ro.scene, ooc);
   RenderSettings rs = checked.settings;
   complete_settings(ro, scene, rs);
-  const CameraPath path = o.path.empty() ? orbit_path(scene.desc.extent(), o.orbit) : load_camera_path(o.path);
+  const CameraPath path =
+      o.path.empty() ? generated_path(o.path_kind, scene.desc.extent(), o.orbit) : load_camera_path(o.path);
   std::string notice;  // printed once the first renderer accepted the settings: bad input stays one line
   const Backend backend = choose_backend(ro.backend, &notice);
-  BenchRun b{o, checked, scene, path, methods, ooc && !o.warmup_given ? 0 : o.warmup, backend, rs, outputs};
+  BenchRun b{o, checked, scene, path, methods, ooc && !o.warmup_given ? 0 : o.warmup, backend, rs, outputs, dist};
   b.rs.method = methods[0];
   std::unique_ptr<SceneRenderer> first = b.renderer();
   if (!notice.empty()) std::fputs(notice.c_str(), stderr);
-  return ooc ? bench_out_of_core(b, std::move(first)) : bench_in_core(b, std::move(first));
+  const int rc = ooc ? bench_out_of_core(b, std::move(first)) : bench_in_core(b, std::move(first));
+  std::uint64_t requests = 0, bytes = 0;
+  for (const auto& io : scene.store_io) {
+    if (io) requests += io->requests(), bytes += io->bytes();
+  }
+  if (!scene.store_io.empty()) {
+    std::printf("store: %llu requests, %.2f MiB read\n", (unsigned long long)requests, double(bytes) / (1024.0 * 1024.0));
+  }
+  return rc;
+}
+
+int run_bench(const BenchOptions& o) {
+#if SL_HAVE_MPI
+  if (o.render.distributed) return run_distributed([&](Distributed& d) { return bench(o, &d); });
+#endif
+  return bench(o, nullptr);
 }
 
 }  // namespace
@@ -322,7 +503,17 @@ Runner add_bench_command(CLI::App& app) {
   o->render.backend = "cpu";
   add_render_options(*c, o->render, Command::Bench);
   c->add_option("--path", o->path, "Camera path JSON (keyframes); default: an orbit");
-  c->add_option("--orbit", o->orbit, "Frames of the generated orbit")->capture_default_str();
+  c->add_option("--orbit", o->orbit, "Views of the generated path (--path-kind)")->capture_default_str();
+  CLI::Option* kind = c->add_option("--path-kind", o->path_kind,
+                                    "Generated path: orbit; orbit-zoom (orbit while the distance swings 3 times "
+                                    "between the default and a quarter of it, so the level of detail changes); "
+                                    "zoom-in (straight towards the centre, to a fifth of the distance)")
+                          ->capture_default_str();
+  c->add_option("--rss-at", o->rss_at,
+                "Out of core: print the process RSS at these frame numbers (counted over all views of a method), "
+                "e.g. 100,1000,2000; also in the JSON");
+  c->add_option("--max-frames", o->max_frames, "Out of core: frames per method at most (0: every view of the path)")
+      ->capture_default_str();
   CLI::Option* methods =
       c->add_option("--methods", o->methods, "Comma-separated methods (out of core: sparseleap and none; default there sparseleap)")
           ->capture_default_str();
@@ -333,9 +524,10 @@ Runner add_bench_command(CLI::App& app) {
   c->add_option("--json", o->json, "Summary JSON");
   c->add_option("--max-frames-per-view", o->max_frames_per_view, "Out of core: frames per view at most")
       ->capture_default_str();
-  return [o, methods, warmup] {
+  return [o, methods, warmup, kind] {
     o->methods_given = methods->count() > 0;
     o->warmup_given = warmup->count() > 0;
+    o->path_kind_given = kind->count() > 0;
     return run_bench(*o);
   };
 }

@@ -2,6 +2,7 @@
 #pragma once
 
 #include <CLI/CLI.hpp>
+#include <exception>
 #include <functional>
 
 namespace sl::app {
@@ -14,5 +15,9 @@ Runner add_info_command(CLI::App& app);
 Runner add_bench_command(CLI::App& app);
 Runner add_view_command(CLI::App& app);
 Runner add_ingest_command(CLI::App& app);
+
+// Prints the one error line for `error` on stderr ("sparseleap: error: …" for bad input and
+// out of memory, "sparseleap: internal error: …" otherwise) and returns the exit code (1 or 3).
+int report_error(std::exception_ptr error);
 
 }  // namespace sl::app

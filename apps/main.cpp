@@ -7,31 +7,31 @@
 
 #include "apps/commands.h"
 #include "core/error.h"
+#include "core/printable.h"
 
 namespace {
 
-// The error line as printed: control bytes (from a corrupt header, a file name, an option value) are
-// escaped as \xNN, so the message stays one line and cannot drive the terminal.
-std::string printable(const std::string& s) {
-  std::string out;
-  for (const char c : s) {
-    const auto u = static_cast<unsigned char>(c);
-    if (u < 0x20 || u == 0x7f) {
-      char buf[8];
-      std::snprintf(buf, sizeof buf, "\\x%02x", u);
-      out += buf;
-    } else {
-      out += c;
-    }
-  }
-  return out;
-}
-
 void print_error(const char* kind, const std::string& what) {
-  std::fprintf(stderr, "sparseleap: %s%s\n", kind, printable(what).c_str());
+  std::fprintf(stderr, "sparseleap: %s%s\n", kind, sl::printable(what).c_str());
 }
 
 }  // namespace
+
+int sl::app::report_error(std::exception_ptr error) {
+  try {
+    std::rethrow_exception(error);
+  } catch (const sl::InputError& e) {
+    print_error("error: ", e.what());
+    return 1;
+  } catch (const std::bad_alloc&) {
+    print_error("error: ", "out of memory");
+    return 1;
+  } catch (const std::exception& e) {
+    print_error("internal error: ", e.what());
+    return 3;
+  }
+  return 3;
+}
 
 int main(int argc, char** argv) {
   CLI::App app{"sparseleap: out-of-core volume renderer with SparseLeap empty-space skipping"};
@@ -70,15 +70,8 @@ int main(int argc, char** argv) {
     for (auto& [sub, run] : runners) {
       if (sub->parsed()) return run();
     }
-  } catch (const sl::InputError& e) {
-    print_error("error: ", e.what());
-    return 1;
-  } catch (const std::bad_alloc&) {
-    print_error("error: ", "out of memory");
-    return 1;
-  } catch (const std::exception& e) {
-    print_error("internal error: ", e.what());
-    return 3;
+  } catch (...) {
+    return sl::app::report_error(std::current_exception());
   }
   return 0;
 }

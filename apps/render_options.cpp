@@ -8,6 +8,7 @@
 #include <cstdlib>
 #include <regex>
 
+#include "cache/fault_injection.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "core/error.h"
 
@@ -29,7 +30,7 @@ void parse_size(const std::string& s, int& w, int& h) {
 
 }  // namespace
 
-bool RenderOptions::out_of_core() const { return cache_mb > 0 || is_procedural_spec(scene.volume); }
+bool RenderOptions::out_of_core() const { return cache_mb > 0 || distributed || is_procedural_spec(scene.volume); }
 
 void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   const bool view = cmd == Command::View;
@@ -37,12 +38,16 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   const auto key = [&](const char* k) { return view ? std::string(" (key ") + k + ")" : std::string(); };
   SceneOptions& s = o.scene;
   c.add_option("--volume", s.volume,
-               "Volume: NRRD (.nrrd/.nhdr), NIfTI-1 (.nii/.nii.gz), TIFF stack (.tif/.tiff or a directory), OME-Zarr store (.zarr; out of core with --cache-mb), "
+               "Volume: NRRD (.nrrd/.nhdr), NIfTI-1 (.nii/.nii.gz), TIFF stack (.tif/.tiff or a directory), OME-Zarr store (.zarr "
+               "directory or http(s):// URL, optionally behind zarr://; out of core with --cache-mb), "
                "builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
   c.add_option("--labels", s.labels,
                "Label volume (NRRD or .zarr store, integer type, same dims); a .zarr volume's own labels/ group is "
                "used when this is not given");
   c.add_option("--tf", s.tf, "Transfer function JSON");
+  c.add_option("--disk-cache", s.disk_cache,
+               "Directory caching the objects of remote (http/https) stores between runs (LRU, crash-safe)");
+  c.add_option("--disk-cache-mb", s.disk_cache_mb, "Bound of --disk-cache in MB (default 1024)");
   if (cmd != Command::Bench) c.add_option("--camera", s.camera, "Camera JSON");
   c.add_option("--enable", s.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
 
@@ -64,6 +69,10 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
             return std::isfinite(f) ? std::string() : std::string("must be a finite number");
           },
           "FINITE"));
+  c.add_option("--iso-method", o.iso_method,
+               "Iso surface: exact (first root of the trilinear interpolant per cell, LR81) or sampled (first "
+               "sample pair bracketing the iso value, bisection)")
+      ->capture_default_str();
   c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in [0.001, 64]")->capture_default_str();
   c.add_option("--block", o.block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
   c.add_option("--fine-cell", o.fine_cell,
@@ -71,6 +80,12 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "image is the same, only clear cells' samples are skipped")
       ->capture_default_str();
   c.add_flag("--ert", o.ert, "Early ray termination at opacity 0.99");
+  c.add_flag("--shade", o.lighting.enabled,
+             "dvr: Blinn-Phong lighting with a headlight on the gradient (VTK's model and defaults)");
+  c.add_option("--ambient", o.lighting.ambient, "--shade: ambient coefficient in [0, 1]")->capture_default_str();
+  c.add_option("--diffuse", o.lighting.diffuse, "--shade: diffuse coefficient in [0, 1]")->capture_default_str();
+  c.add_option("--specular", o.lighting.specular, "--shade: specular coefficient in [0, 1]")->capture_default_str();
+  c.add_option("--shininess", o.lighting.shininess, "--shade: specular power in [0, 128]")->capture_default_str();
   if (cmd != Command::Bench) {
     c.add_option("--view", o.view, "image or depth-complexity" + key("D"))->capture_default_str();
     c.add_flag("--boxes", o.boxes,
@@ -95,6 +110,31 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   c.add_option("--retire-frames", o.retire_frames,
                "Retire occupancy-tree nodes unused this many frames (out of core)")
       ->capture_default_str();
+  c.add_option("--prefetch", o.prefetch,
+               std::string("on or off: out of core, once a frame is complete, load the next-finer level around "
+                           "the view's focus") +
+                   (cmd != Command::Render ? " and along the camera's motion (next view extrapolated)" : "") +
+                   " within the upload budget and spare cache room; never evicts bricks the view uses")
+      ->capture_default_str();
+  c.add_option("--inject-faults", s.inject_faults,
+               "Testing aid, out of core: make brick reads fail, e.g. permanent=0.02,transient=0.06,short=0.02,"
+               "recover=2,delay=0.1,delay-ms=5,seed=7 (shares of bricks; transient and short reads fail their "
+               "first 1..recover attempts and are retried with backoff)")
+      ->check(CLI::Validator(
+          [](const std::string& v) {
+            try {
+              parse_fault_spec(v);
+              return std::string();
+            } catch (const InputError& e) {
+              return e.reason();
+            }
+          },
+          "SPEC"));
+  if (cmd != Command::View) {
+    c.add_flag("--distributed", o.distributed,
+               "Sort-last under mpirun: each rank renders its k-d region of the volume out of core, IceT "
+               "composites, rank 0 writes (dvr, iso, labels; --ert is per rank, not exact)");
+  }
 }
 
 CheckedOptions check_render_options(const RenderOptions& o) {
@@ -103,8 +143,11 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   parse_size(o.size, rs.width, rs.height);
   rs.mode = parse_render_mode(o.mode);
   rs.method = parse_skip_method(o.method);
+  rs.iso_method = parse_iso_method(o.iso_method);
   rs.step = o.step;
   rs.ert = o.ert;
+  rs.lighting = o.lighting;
+  validate_lighting(o.lighting);
   rs.block = o.block;
   rs.fine_cell = o.fine_cell;
   validate_fine_cell(o.fine_cell);
@@ -119,10 +162,29 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   // A negative --cache-mb wraps to a huge unsigned budget (and then "out of memory").
   if (o.cache_mb > std::size_t(PTRDIFF_MAX)) throw InputError("--cache-mb", "must be positive");
   if (o.threads < 0) throw InputError("--threads", "must be 0 (all cores) or a number of threads");
+  if (o.scene.disk_cache_mb > std::size_t(PTRDIFF_MAX) >> 20) throw InputError("--disk-cache-mb", "must be positive");
+  if (o.scene.disk_cache_mb > 0 && o.scene.disk_cache.empty()) {
+    throw InputError("--disk-cache-mb", "needs --disk-cache DIR");
+  }
   if (!(o.lod_bias > 0.0f) || !std::isfinite(o.lod_bias)) throw InputError("--lod-bias", "must be positive");
   if (o.lod < -1) throw InputError("--lod", "must be a level (0: full resolution)");
+  if (o.prefetch != "on" && o.prefetch != "off") throw InputError("--prefetch", "must be on or off");
   if (o.out_of_core() && !out_of_core_method(rs.method)) {
     throw InputError("--method", "out-of-core rendering supports sparseleap and none");
+  }
+  if (!o.scene.inject_faults.empty() && !o.out_of_core()) {
+    throw InputError("--inject-faults", "faults are injected into out-of-core brick reads: add --cache-mb");
+  }
+  if (o.distributed) {
+#ifndef SL_HAVE_MPI
+    throw InputError("--distributed", "this build has no MPI and IceT (configure with -DSL_MPI=ON; Debian's "
+                                      "libopenmpi-dev and paraview-dev)");
+#endif
+    // MIP takes the maximum along the ray, which the ordered "over" of RGBA cannot composite.
+    if (rs.mode == RenderMode::Mip) throw InputError("--distributed", "mip mode is not supported (dvr, iso, labels)");
+    if (rs.depth_complexity_view || rs.boxes_overlay) {
+      throw InputError("--distributed", "the depth-complexity view and --boxes are single-process overlays");
+    }
   }
   c.lists = parse_list_source(o.lists);
   c.cuda_sampler = parse_cuda_sampler(o.cuda_sampler);
@@ -157,6 +219,7 @@ OutOfCoreSettings out_of_core_settings(const RenderOptions& o) {
   os.lod = o.lod;
   os.lod_bias = o.lod_bias;
   os.retire_frames = o.retire_frames;
+  os.prefetch = o.prefetch == "on";
   return os;
 }
 

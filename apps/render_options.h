@@ -28,10 +28,12 @@ struct RenderOptions {
   std::string view = "image";         // render, view
   bool boxes = false;                 // render, view
   float iso = NAN;              // NaN: 128 for u8, else the transfer function's mid-range
+  std::string iso_method = "exact";
   float step = 0.5f;
   int block = 16;
   int fine_cell = 4;            // fine occupancy cells inside SparseLeap segments (0: off)
   bool ert = false;
+  Lighting lighting;            // --shade --ambient --diffuse --specular --shininess (dvr)
   std::string backend = "auto";
   std::string lists = "cpu";
   std::string cuda_sampler = "slots";
@@ -42,8 +44,13 @@ struct RenderOptions {
   int lod = -1;
   float lod_bias = 1.0f;
   unsigned retire_frames = 60;
+  // on|off (out of core; OutOfCoreSettings::prefetch). On: measured faster to converge along a
+  // zoom-in path (bench --path-kind zoom-in --prefetch on|off, alternate runs).
+  std::string prefetch = "on";
+  bool distributed = false;     // render, bench: sort-last under mpirun (apps/distributed.h)
 
-  // Rendered through the page table and brick cache: --cache-mb, or a procedural volume.
+  // Rendered through the page table and brick cache: --cache-mb, a procedural volume, or
+  // --distributed (each rank's out-of-core renderer on its region).
   bool out_of_core() const;
 };
 

@@ -3,9 +3,15 @@
 #include <cstdio>
 #include <regex>
 
+#include "cache/fault_injection.h"
 #include "cache/synthetic/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
+#include "cache/formats/counting_byte_store.h"
+#include "cache/formats/disk_cache.h"
 #include "cache/formats/nrrd.h"
+#include "cache/formats/precomputed_source.h"
+#include "cache/formats/store_kind.h"
+#include "cache/formats/store_url.h"
 #include "cache/formats/volume_file.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
@@ -41,10 +47,18 @@ GeneratedVolume load_builtin(const std::string& spec) {
   }
 }
 
-// A volume file (NRRD, NIfTI-1, TIFF stack), or level 0 of an OME-Zarr store read whole (in core),
-// refused from its header when it would not fit in memory, with the hint to stream it instead.
-Volume read_volume_file(const std::string& path, bool store_labels = false) {
-  if (!zarr::is_zarr_path(path)) {
+// A volume file (NRRD, NIfTI-1, TIFF stack), or level 0 of an OME-Zarr store or a Neuroglancer
+// precomputed volume read whole (in core), refused from its header when it would not fit in memory, with
+// the hint to stream it instead.
+Volume read_volume_file(const std::string& given, bool store_labels = false) {
+  const StoreLocation store = recognise_store(given);
+  const std::string& path = store.path;
+  if (store.kind == StoreKind::Precomputed) {
+    const VolumeDesc d = read_precomputed_desc(path);
+    check_fits_in_memory(d.byte_size(), path, "scale 0 (" + dims_text(d) + ")", "; render it out of core with --cache-mb");
+    return read_precomputed_volume(path);
+  }
+  if (store.kind != StoreKind::Zarr) {
     const VolumeDesc d = read_volume_file_desc(path);
     check_fits_in_memory(d.byte_size(), path, dims_text(d),
                          "; convert it with `sparseleap ingest` and render the store out of core (--cache-mb)");
@@ -79,7 +93,8 @@ LoadedScene load_scene(const SceneOptions& o) {
   } else {
     s.volume = read_volume_file(o.volume);
     s.name = o.volume;
-    if (o.labels.empty() && zarr::is_zarr_path(o.volume) && zarr::open_store(o.volume).labels) {
+    const StoreLocation store = recognise_store(o.volume);
+    if (o.labels.empty() && store.kind == StoreKind::Zarr && zarr::open_store(store.path).labels) {
       s.labels = read_volume_file(o.volume, true);
     }
   }
@@ -127,32 +142,52 @@ void check_fits_in_memory(std::uint64_t bytes, const std::string& who, const std
   }
 }
 
-SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
+namespace {
+
+// A chunked store's source (ZarrVolumeSource, PrecomputedVolumeSource) and what the scene takes from it.
+template <class Source> void fill_store_scene(SourceScene& s, std::shared_ptr<Source> src, const SceneOptions& o) {
+  s.source = src;
+  s.name = src->name();
+  s.desc = src->desc();
+  s.label_count = src->max_label();
+  check_label_table(s.label_count, o.labels.empty() ? o.volume : o.labels);
+  s.labelled = src->has_labels();
+  if (!o.tf.empty()) {
+    s.tf = load_transfer_function(o.tf);
+  } else if (s.desc.type == VoxelType::U8) {
+    s.tf = default_transfer_function(0.0f, 255.0f);
+  } else {
+    const vec2 r = src->value_range_estimate();
+    s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+  }
+  s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
+  if (!o.enable.empty()) {
+    if (!src->has_labels()) throw InputError("--enable", "needs a label volume (the store's labels/ or --labels)");
+    s.enabled = parse_enable_spec(o.enable, s.label_count);
+  }
+}
+
+SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
+  // Remote stores opened from here on read through the disk cache (store_url.h).
+  set_disk_cache(o.disk_cache.empty() ? nullptr
+                                      : std::make_shared<DiskCache>(o.disk_cache, std::uint64_t(o.disk_cache_mb > 0 ? o.disk_cache_mb : 1024) << 20));
   SourceScene s;
-  if (out_of_core && zarr::is_zarr_path(o.volume)) {
-    // An OME-Zarr store streams chunk by chunk through the brick loader (DESIGN.md §4).
-    if (!o.labels.empty() && !zarr::is_zarr_path(o.labels)) {
-      throw InputError("--labels", "a .zarr volume rendered out of core takes its labels from a .zarr store");
+  const StoreLocation store = recognise_store(o.volume);
+  if (out_of_core && store.kind != StoreKind::None) {
+    // A chunked store streams chunk by chunk through the brick loader (DESIGN.md §4).
+    const StoreLocation labels = recognise_store(o.labels);
+    if (!o.labels.empty() && labels.kind != store.kind) {
+      throw InputError("--labels", store.kind == StoreKind::Zarr
+                                       ? "a .zarr volume rendered out of core takes its labels from a .zarr store"
+                                       : "a precomputed volume rendered out of core takes its labels from a precomputed volume");
     }
-    auto src = std::make_shared<ZarrVolumeSource>(o.volume, o.labels);
-    s.source = src;
-    s.name = o.volume;
-    s.desc = src->desc();
-    s.label_count = src->max_label();
-    check_label_table(s.label_count, o.labels.empty() ? o.volume : o.labels);
-    s.labelled = src->has_labels();
-    if (!o.tf.empty()) {
-      s.tf = load_transfer_function(o.tf);
-    } else if (s.desc.type == VoxelType::U8) {
-      s.tf = default_transfer_function(0.0f, 255.0f);
+    if (store.kind == StoreKind::Zarr) {
+      fill_store_scene(s, std::make_shared<ZarrVolumeSource>(store.path, labels.path), o);
     } else {
-      const vec2 r = src->value_range_estimate();
-      s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
-    }
-    s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
-    if (!o.enable.empty()) {
-      if (!src->has_labels()) throw InputError("--enable", "needs a label volume (the store's labels/ or --labels)");
-      s.enabled = parse_enable_spec(o.enable, s.label_count);
+      auto bytes = std::make_shared<CountingByteStore>(open_byte_store(store.path));
+      auto label_bytes = o.labels.empty() ? nullptr : std::make_shared<CountingByteStore>(open_byte_store(labels.path));
+      fill_store_scene(s, std::make_shared<PrecomputedVolumeSource>(bytes, store.path, label_bytes, labels.path), o);
+      s.store_io = {bytes, label_bytes};
     }
     return s;
   }
@@ -179,6 +214,17 @@ SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
   if (!ls.labels.empty()) s.labels = std::make_shared<const Volume>(std::move(ls.labels));
   s.labelled = s.labels != nullptr;
   if (out_of_core) s.source = std::make_shared<MemoryVolumeSource>(s.volume, s.labels, s.name);
+  return s;
+}
+
+}  // namespace
+
+SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
+  SourceScene s = open_source_scene(o, out_of_core);
+  // The one place sources are opened, so every source kind can be tested under faults (issue 15).
+  if (s.source && !o.inject_faults.empty()) {
+    s.source = std::make_shared<FaultInjectingSource>(s.source, parse_fault_spec(o.inject_faults));
+  }
   return s;
 }
 

@@ -3,9 +3,11 @@
 // bench and view.
 #pragma once
 
+#include <cstddef>
 #include <memory>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "cache/volume_source.h"
 #include "core/camera.h"
@@ -13,14 +15,21 @@
 #include "core/transfer_function.h"
 #include "core/volume.h"
 
+namespace sl {
+class CountingByteStore;
+}
+
 namespace sl::app {
 
 struct SceneOptions {
-  std::string volume;   // NRRD path; empty = built-in neurites
-  std::string labels;   // optional NRRD label volume
+  std::string volume;   // file, store directory or URL; empty = built-in neurites
+  std::string labels;   // optional label volume (file, store or URL)
   std::string tf;       // transfer-function JSON; empty = default for the data
   std::string camera;   // camera JSON; empty = default view
   std::string enable;   // enabled-label spec; empty = no label mask
+  std::string inject_faults;  // out of core: a fault spec (cache/fault_injection.h); empty = none
+  std::string disk_cache;          // --disk-cache: on-disk cache of remote store objects; empty = none
+  std::size_t disk_cache_mb = 0;   // its bound (0: the default, 1024)
 };
 
 // A scene whose data may also be read out of core: a volume in memory (rendered in core, or through
@@ -37,6 +46,9 @@ struct SourceScene {
   std::optional<LabelSet> enabled;
   std::shared_ptr<const VolumeSource> source;  // set when rendering out of core
   bool labelled = false;  // a label volume whose ids --enable and labels mode can name
+  // The stores a streamed precomputed volume (and its labels) read through, counting requests and bytes
+  // for bench's `store` line; empty otherwise (null entries are skipped).
+  std::vector<std::shared_ptr<const CountingByteStore>> store_io;
   bool out_of_core() const { return source != nullptr; }
 };
 SourceScene load_source_scene(const SceneOptions& o, bool out_of_core);

@@ -15,8 +15,8 @@ SceneRenderer::SceneRenderer(const SourceScene& scene, const RenderOptions& o, c
 }
 
 Frame SceneRenderer::render(const TransferFunction& tf, const LabelSet* enabled, const Camera& camera,
-                            const RenderSettings& rs) {
-  if (out_of_core_) return out_of_core_->render(OutOfCoreScene{&tf, enabled, camera}, rs);
+                            const RenderSettings& rs, const Camera* next) {
+  if (out_of_core_) return out_of_core_->render(OutOfCoreScene{&tf, enabled, camera, next}, rs);
   Scene s;
   s.volume = scene_.volume.get();
   s.labels = scene_.labels.get();

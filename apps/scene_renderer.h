@@ -19,12 +19,15 @@ class SceneRenderer {
   // GL context for --lists gl). With --lists gl, construct it on the thread that renders.
   SceneRenderer(const SourceScene& scene, const RenderOptions& o, const CheckedOptions& c, Backend backend);
 
-  Frame render(const TransferFunction& tf, const LabelSet* enabled, const Camera& camera, const RenderSettings& rs);
+  // `next`: the view expected next, for out-of-core prefetch along the motion (optional).
+  Frame render(const TransferFunction& tf, const LabelSet* enabled, const Camera& camera, const RenderSettings& rs,
+               const Camera* next = nullptr);
 
   // In core: the next frame rebuilds its segment lists (bench's rasterization frames).
   void invalidate_lists();
   // Null in core.
   const OutOfCoreRenderer* out_of_core() const { return out_of_core_.get(); }
+  OutOfCoreRenderer* out_of_core() { return out_of_core_.get(); }
 
  private:
   const SourceScene& scene_;

@@ -8,9 +8,27 @@
 
 namespace sl {
 
-BrickLoader::BrickLoader(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, int threads)
-    : source_(std::move(source)), layout_(layout) {
+namespace {
+
+// Orders the backoff heap so that its front is the earliest due retry.
+template <class R>
+bool later(const R& a, const R& b) {
+  return a.due > b.due;
+}
+
+}  // namespace
+
+std::chrono::milliseconds RetryPolicy::backoff(int attempt) const {
+  std::chrono::milliseconds b = first_backoff;
+  for (int i = 0; i < attempt && b < max_backoff; ++i) b *= 2;
+  return std::min(b, max_backoff);
+}
+
+BrickLoader::BrickLoader(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, int threads,
+                         const RetryPolicy& retry)
+    : source_(std::move(source)), layout_(layout), retry_(retry) {
   SL_CHECK(source_ != nullptr);
+  SL_CHECK(retry_.max_attempts >= 1 && retry_.first_backoff.count() >= 0 && retry_.max_backoff >= retry_.first_backoff);
   if (threads <= 0) threads = int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
   workers_.reserve(std::size_t(threads));
   for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { work(); });
@@ -21,6 +39,8 @@ BrickLoader::~BrickLoader() {
     std::lock_guard lock(mutex_);
     stop_ = true;
     queue_.clear();
+    prefetch_queue_.clear();
+    backoff_.clear();  // workers waiting for a retry's due time wake at the notify below
   }
   wake_.notify_all();
   for (std::thread& t : workers_) t.join();
@@ -32,7 +52,19 @@ std::size_t BrickLoader::request(std::span<const BrickId> ids) {
     std::lock_guard lock(mutex_);
     for (const BrickId id : ids) {
       SL_CHECK(layout_.contains(id));
-      if (failed_.count(id) || !known_.insert(id).second) continue;
+      if (failed_.count(id)) continue;
+      if (!known_.insert(id).second) {
+        // Already known: a prefetch still queued becomes a request now (it keeps its place in the
+        // order of requests, ahead of later ones).
+        const auto it = std::find_if(prefetch_queue_.begin(), prefetch_queue_.end(),
+                                     [&](const Job& j) { return j.id == id; });
+        if (it != prefetch_queue_.end()) {
+          queue_.push_back(*it);
+          prefetch_queue_.erase(it);
+          ++queued;
+        }
+        continue;
+      }
       queue_.push_back({next_seq_++, id});
       ++queued;
     }
@@ -42,6 +74,21 @@ std::size_t BrickLoader::request(std::span<const BrickId> ids) {
   } else if (queued > 1) {
     wake_.notify_all();
   }
+  return queued;
+}
+
+std::size_t BrickLoader::prefetch(std::span<const BrickId> ids) {
+  std::size_t queued = 0;
+  {
+    std::lock_guard lock(mutex_);
+    for (const BrickId id : ids) {
+      SL_CHECK(layout_.contains(id));
+      if (failed_.count(id) || !known_.insert(id).second) continue;
+      prefetch_queue_.push_back({next_seq_++, id});
+      ++queued;
+    }
+  }
+  if (queued) wake_.notify_all();
   return queued;
 }
 
@@ -65,9 +112,13 @@ LoaderBatch BrickLoader::collect(std::size_t max_bricks) {
 
 std::size_t BrickLoader::cancel_queued() {
   std::lock_guard lock(mutex_);
-  const std::size_t n = queue_.size();
+  const std::size_t n = queue_.size() + prefetch_queue_.size() + backoff_.size();
   for (const Job& j : queue_) known_.erase(j.id);
+  for (const Job& j : prefetch_queue_) known_.erase(j.id);
+  for (const Retry& r : backoff_) known_.erase(r.job.id);
   queue_.clear();
+  prefetch_queue_.clear();
+  backoff_.clear();
   if (loading_ == 0) idle_.notify_all();
   return n;
 }
@@ -89,7 +140,7 @@ std::size_t BrickLoader::failed_count() const {
 
 std::size_t BrickLoader::pending() const {
   std::lock_guard lock(mutex_);
-  return queue_.size() + loading_ + done_.size();
+  return queue_.size() + prefetch_queue_.size() + backoff_.size() + loading_ + done_.size();
 }
 
 std::uint64_t BrickLoader::loads_completed() const {
@@ -97,9 +148,24 @@ std::uint64_t BrickLoader::loads_completed() const {
   return completed_;
 }
 
+LoaderCounts BrickLoader::counts() const {
+  std::lock_guard lock(mutex_);
+  LoaderCounts c = counts_;
+  c.failed = failed_.size();
+  return c;
+}
+
 void BrickLoader::wait_idle() {
   std::unique_lock lock(mutex_);
-  idle_.wait(lock, [&] { return queue_.empty() && loading_ == 0; });
+  idle_.wait(lock, [&] { return idle(); });
+}
+
+void BrickLoader::promote_due_retries(Clock::time_point now) {
+  while (!backoff_.empty() && backoff_.front().due <= now) {
+    std::pop_heap(backoff_.begin(), backoff_.end(), later<Retry>);
+    queue_.push_front(backoff_.back().job);
+    backoff_.pop_back();
+  }
 }
 
 void BrickLoader::work() {
@@ -108,8 +174,26 @@ void BrickLoader::work() {
   const std::size_t label_bytes = source_->has_labels() ? n * std::size_t(voxel_size(source_->label_type())) : 0;
   std::unique_lock lock(mutex_);
   for (;;) {
-    wake_.wait(lock, [&] { return stop_ || !queue_.empty(); });
-    if (stop_) return;
+    // Idle workers wait for a request or for the earliest retry's due time; no worker ever sleeps
+    // through a backoff while other bricks could load.
+    for (;;) {
+      if (stop_) return;
+      promote_due_retries(Clock::now());
+      if (!queue_.empty()) break;
+      if (!prefetch_queue_.empty()) {  // only when no request waits
+        queue_.push_back(prefetch_queue_.front());
+        prefetch_queue_.pop_front();
+        break;
+      }
+      if (backoff_.empty()) {
+        wake_.wait(lock);
+      } else {
+        // A copy: wait_until reads its deadline again after waking, when another worker may have
+        // reallocated backoff_ while the lock was released (a use-after-free ASan caught).
+        const Clock::time_point due = backoff_.front().due;
+        wake_.wait_until(lock, due);
+      }
+    }
     const Job job = queue_.front();
     queue_.pop_front();
     ++loading_;
@@ -124,8 +208,12 @@ void BrickLoader::work() {
     brick.intensity.resize(intensity_bytes);
     brick.labels.resize(label_bytes);
     std::string error;
+    bool transient = false;
     try {
       source_->read_brick(layout_, job.id, brick.intensity, brick.labels);
+    } catch (const TransientError& e) {
+      error = e.reason();
+      transient = true;
     } catch (const InputError& e) {
       error = e.reason();  // the source's name is prefixed below
     } catch (const std::exception& e) {
@@ -138,15 +226,28 @@ void BrickLoader::work() {
     lock.lock();
     --loading_;
     ++completed_;
+    if (transient && job.attempt + 1 < retry_.max_attempts && !stop_) {
+      // Retried later, when a worker is free after the backoff; the buffers (possibly half filled by
+      // a short read) are dropped, never handed out.
+      if (job.attempt == 0) ++counts_.bricks_retried;
+      ++counts_.retries;
+      backoff_.push_back({Clock::now() + retry_.backoff(job.attempt), job});
+      ++backoff_.back().job.attempt;
+      std::push_heap(backoff_.begin(), backoff_.end(), later<Retry>);
+      wake_.notify_all();  // idle workers now wait for its due time
+      continue;
+    }
+    if (transient && job.attempt > 0) error += " (still failing after " + std::to_string(job.attempt + 1) + " attempts)";
     if (!error.empty()) {
       // Reported once through collect(), remembered so the brick is never requested again.
       known_.erase(job.id);
       failed_.emplace(job.id, error);
       new_failures_.push_back({job.id, source_->name() + ": " + to_string(job.id) + ": " + error, error});
     } else {
+      if (job.attempt > 0) ++counts_.recovered;
       done_.push_back({job.seq, std::move(brick)});
     }
-    if (queue_.empty() && loading_ == 0) idle_.notify_all();
+    if (idle()) idle_.notify_all();
   }
 }
 

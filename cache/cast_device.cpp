@@ -7,20 +7,6 @@
 
 namespace sl {
 
-void PageTableUpdate::clear() {
-  dir_index.clear();
-  dir_value.clear();
-  pool_index.clear();
-  pool_value.clear();
-}
-
-std::uint64_t PageTableUpdate::pool_words_needed() const {
-  std::uint64_t n = 0;
-  for (std::uint64_t i : pool_index) n = std::max(n, i + 1);
-  for (std::uint32_t d : dir_value) n = std::max(n, std::uint64_t(d) * kPageEntries);  // d = page + 1
-  return n;
-}
-
 void split_page_table_update(const PageTableUpdate& u, const std::vector<bool>& in_flight, PageTableUpdate& now,
                              PageTableUpdate& later) {
   // Directory words carry no data dependency: a newly allocated page reads Unmapped until its words
@@ -64,6 +50,12 @@ void cast_labels_typed(const CastParams& p, const RayGenerator& gen, const Box3&
 }
 
 }  // namespace
+
+void add_shortfall(const SampleShortfall& host, std::span<const std::uint64_t> device) {
+  if (!host.counters) return;
+  SL_CHECK(device.size() == SampleShortfall::kWords);
+  for (std::uint32_t w = 0; w < SampleShortfall::kWords; ++w) host.counters[w] += device[w];
+}
 
 void cast_virtual_frame(const CastParams& p, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,
                         std::uint32_t n, const VirtualMemoryView& vm, Frame& f) {

@@ -85,19 +85,6 @@ struct BrickUpload {
   std::span<const std::byte> labels;  // same for labels; empty without
 };
 
-// Page-table words changed on the host, with their current values. Directory word i and pool word j
-// are the words of PageTableView::directory / pool, so the device mirrors the host layout 1:1.
-struct PageTableUpdate {
-  std::vector<std::uint32_t> dir_index, dir_value;
-  std::vector<std::uint64_t> pool_index;
-  std::vector<std::uint32_t> pool_value;
-  std::size_t words() const { return dir_index.size() + pool_index.size(); }
-  bool empty() const { return words() == 0; }
-  void clear();
-  // Largest pool word index + 1 referenced (directory values name pages), for growing a mirror.
-  std::uint64_t pool_words_needed() const;
-};
-
 // Splits `u` into the words to apply now and those that map a brick to a slot still being uploaded
 // (in_flight[slot]); the latter go to `later`, applied after the uploads land (order kept: later
 // words of the next update overwrite them).
@@ -132,6 +119,12 @@ class CastDevice {
   // Fills frame.image (sized by the caller) and the ray-casting stats, as cast_frame does.
   virtual void cast(const CastRequest& request, Frame& frame, CastFeedback& feedback) = 0;
 };
+
+// A device with its own memory counts the frame's sample shortfall (virtual_sampler.h, the CPU's own
+// code) into its own SampleShortfall::kWords counters, zeroed before the cast; the host adds them into
+// the frame's counters, so completeness and lod_coarsened are the CPU's on every device. A null host
+// counter array means the frame does not count.
+void add_shortfall(const SampleShortfall& host, std::span<const std::uint64_t> device);
 
 // The CPU caster over a virtual memory view (type dispatch + cast_frame); every CPU device uses it.
 void cast_virtual_frame(const CastParams& params, const RayGenerator& gen, const Box3& vbox, const SkipInputs& skip,

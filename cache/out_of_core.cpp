@@ -8,6 +8,7 @@
 
 #include "core/culling.h"
 #include "core/error.h"
+#include "core/printable.h"
 
 namespace sl {
 
@@ -38,6 +39,12 @@ std::uint64_t view_key(const Camera& c, const RenderSettings& s, std::uint64_t c
   return h;
 }
 
+std::size_t default_metadata_capacity(const OutOfCoreSettings& settings, std::size_t slots, int block) {
+  if (settings.metadata_blocks > 0) return settings.metadata_blocks;
+  const std::size_t per = std::size_t(settings.brick / std::max(block, 1));
+  return std::max<std::size_t>(16384, 4 * slots * per * per * per);
+}
+
 }  // namespace
 
 OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source, const OutOfCoreSettings& settings,
@@ -51,8 +58,9 @@ OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source,
              source_->has_labels() ? std::optional<VoxelType>(source_->label_type()) : std::nullopt,
              settings.cache_mb),
       misses_(1u << 16),
-      loader_(source_, layout_, settings.loader_threads),
+      loader_(source_, layout_, settings.loader_threads, settings.retry),
       tree_(make_block_grid(source_->desc().dims, source_->desc().spacing, block), OccupancyClass::Unknown),
+      metadata_(default_metadata_capacity(settings, cache_.slot_count(), block)),
       device_(device ? std::move(device) : std::make_unique<CpuCastDevice>()) {
   validate_block_size(block);
   if (block > settings.brick) throw InputError("--block", "the culling block must not exceed the brick size (--brick)");
@@ -81,26 +89,9 @@ OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source,
 }
 
 void OutOfCoreRenderer::map(BrickId id, PageEntry e) {
-  if (!device_memory_) {
-    page_table_.set(id, e);
-    return;
-  }
-  // The pool word is identified before the change too: clearing a page's last entry releases it.
-  const PageTableView before = page_table_.view();
-  const std::uint32_t di = before.directory_index(id);
-  const std::uint32_t dir_before = before.directory[di];
-  page_table_.set(id, e);
-  const PageTableView after = page_table_.view();
-  const std::uint32_t dir_after = after.directory[di];
-  if (dir_after != dir_before) {
-    dirty_.dir_index.push_back(di);
-    dirty_.dir_value.push_back(0);  // current value filled in at sync
-  }
-  const std::uint32_t dir = dir_after ? dir_after : dir_before;
-  if (dir) {
-    dirty_.pool_index.push_back(PageTableView::pool_index(dir - 1, id));
-    dirty_.pool_value.push_back(0);
-  }
+  // With device memory the table logs the words it writes (entry, chunk pointers, directory), so the
+  // device mirror receives only those.
+  page_table_.set(id, e, device_memory_ ? &dirty_ : nullptr);
 }
 
 OutOfCoreRenderer::~OutOfCoreRenderer() = default;
@@ -116,7 +107,36 @@ void OutOfCoreRenderer::set_region(const RegionClass& r) { tree_.touch(tree_.set
 RegionClass OutOfCoreRenderer::culled_region(std::uint64_t key, const BlockMetadata& m, const Cull& cull) const {
   BrickId id;
   id.bits = key;
-  return region(id.level(), id.coord(), classify_block(m, cull.params));
+  OccupancyClass cls = classify_block(m, cull.params);
+  if (cls == OccupancyClass::Empty && opened_.count(key)) cls = OccupancyClass::NonEmpty;
+  return region(id.level(), id.coord(), cls);
+}
+
+bool OutOfCoreRenderer::open_provisional(const Cull& cull, const LodParams& lod, const RayGenerator& gen) {
+  if (provisional_.empty()) return false;
+  const vec3 extent = source_->desc().extent();
+  bool opened = false;
+  for (auto it = provisional_.begin(); it != provisional_.end();) {
+    BrickId id;
+    id.bits = *it;
+    if (classify_block(metadata_.peek(*it), cull.params) != OccupancyClass::Empty) {
+      ++it;
+      continue;
+    }
+    // The finest level any sample in the block's world box asks for: the one at its nearest point.
+    const vec3 s = layout_.level_spacing(id.level()) * float(block_);
+    const vec3 lo = glm::min(vec3(id.coord()) * s, extent), hi = glm::min(lo + s, extent);
+    const float t = gen.orthographic ? 0.0f : glm::length(glm::clamp(gen.eye, lo, hi) - gen.eye);
+    if (lod.level_at(t) >= id.level()) {
+      ++it;
+      continue;
+    }
+    opened_.insert(*it);
+    apply_metadata(*it, metadata_.at(*it, frame_), cull);
+    it = provisional_.erase(it);
+    opened = true;
+  }
+  return opened;
 }
 
 void OutOfCoreRenderer::apply_metadata(std::uint64_t key, const BlockMetadata& m, const Cull& cull) {
@@ -145,46 +165,84 @@ std::uint32_t OutOfCoreRenderer::node_for_brick(BrickId id) const {
   return tree_.descend(glm::clamp(ivec3(v), ivec3(0), g.blocks - 1), depth);
 }
 
-// Metadata of the culling blocks a brick holds, at its level (DESIGN.md §3): the apron supplies the
-// neighbours of the dilation, so the brick alone is enough.
-void OutOfCoreRenderer::compute_metadata(const LoadedBrick& b, const Cull& cull) {
+// Metadata of the culling blocks a brick holds, at its level (DESIGN.md §3). Level 0 from the brick
+// itself (the apron supplies the neighbours of the dilation). A coarser level from the source's
+// bounds over every level-0 voxel below (DESIGN.md §4, "metadata is a min/max pyramid"): a coarse
+// block's range covers the finer voxels under it, so a region culled EMPTY at a coarse level is EMPTY
+// at every finer level and the tree never has to un-cull when the view zooms in.
+void OutOfCoreRenderer::compute_metadata(const LoadedBrick& b, const Cull& cull, bool apply) {
   const int l = b.id.level();
-  const ivec3 S(layout_.stored_size());
-  const bool labels = source_->has_labels() && !b.labels.empty();
-  const VolumeView iv{b.intensity.data(), S, vec3(1.0f), source_->desc().type};
-  const VolumeView lv{labels ? b.labels.data() : nullptr, S, vec3(1.0f), source_->label_type()};
-  const ivec3 first_stored = layout_.brick_origin(b.id) - kBrickApron;
-  for_each_culling_block(b.id, [&](ivec3 c) {
-    BlockMetadata m =
-        compute_block_metadata(iv, labels ? &lv : nullptr, first_stored, layout_.dims(l), c * block_, block_);
+  std::vector<ivec3> blocks;
+  for_each_culling_block(b.id, [&](ivec3 c) { blocks.push_back(c); });
+  std::vector<BlockMetadata> ms(blocks.size());
+  const bool bounded = l > 0 && source_->bound_blocks(layout_, l, block_, blocks, ms);
+  if (!bounded) {  // (coarse: provisional, see open_provisional)
+    const ivec3 S(layout_.stored_size());
+    const bool labels = source_->has_labels() && !b.labels.empty();
+    const VolumeView iv{b.intensity.data(), S, vec3(1.0f), source_->desc().type};
+    const VolumeView lv{labels ? b.labels.data() : nullptr, S, vec3(1.0f), source_->label_type()};
+    const ivec3 first_stored = layout_.brick_origin(b.id) - kBrickApron;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      ms[i] = compute_block_metadata(iv, labels ? &lv : nullptr, first_stored, layout_.dims(l), blocks[i] * block_,
+                                     block_);
+    }
+  }
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
     ++metadata_computed_this_frame_;
-    const std::uint64_t key = BrickId::pack(l, c).bits;
-    apply_metadata(key, m, cull);
-    metadata_[key] = std::move(m);
-  });
+    const std::uint64_t key = BrickId::pack(l, blocks[i]).bits;
+    if (l > 0 && !bounded && !opened_.count(key)) provisional_.insert(key);
+    if (apply) apply_metadata(key, ms[i], cull);
+    metadata_.put(key, std::move(ms[i]), frame_);
+  }
 }
 
 void OutOfCoreRenderer::upload(const Cull& cull) {
   LoaderBatch batch = loader_.collect(settings_.upload_budget);
   for (const BrickFailure& f : batch.failures) {
     // Reported once per cause — one corrupt chunk under many bricks is one warning, not one per
-    // brick (issue 15); the loader never retries a failed brick; rendered as missing from now on.
+    // brick (issue 15); a failed brick (permanent, or out of retries) is never requested again. It
+    // stays unmapped: sampled from its finest resident ancestor, or as missing, and counted short
+    // of complete, so a frame with lost data never claims completeness 1.
     if (reported_causes_.insert(f.cause).second) {
-      std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n", f.reason.c_str());
+      std::fprintf(stderr, "sparseleap: warning: brick failed to load, rendered as missing: %s\n",
+                   printable(f.reason).c_str());
     }
     metadata_pending_.erase(f.id.bits);
-    map(f.id, PageEntry::empty());
+    prefetch_requested_.erase(f.id);
     // Its region's occupancy can never be known: call it NON_EMPTY (conservative; the data read as
-    // missing), so rays stop reporting it and the view can converge.
+    // missing), so rays stop reporting occupancy misses there and the view can converge.
     for_each_culling_block(f.id, [&](ivec3 c) { set_region(region(f.id.level(), c, OccupancyClass::NonEmpty)); });
   }
   for (LoadedBrick& b : batch.bricks) {
-    if (metadata_pending_.erase(b.id.bits)) compute_metadata(b, cull);
+    const bool prefetched = prefetch_requested_.erase(b.id) > 0;
+    if (metadata_pending_.erase(b.id.bits)) {
+      compute_metadata(b, cull);
+    } else if (prefetched) {
+      // Chosen under a known NON_EMPTY region: its own metadata will refine the tree there, as a
+      // frame's load of it would (resolve_misses, `refine`) — once a frame samples it. Refined now,
+      // the tree would open UNKNOWN siblings in the view on screen, which converged without them.
+      bool known = true;
+      for_each_culling_block(b.id, [&](ivec3 c) { known = known && metadata_.contains(BrickId::pack(b.id.level(), c).bits); });
+      if (!known) {
+        compute_metadata(b, cull, /*apply=*/false);
+        unapplied_.insert(b.id);
+      }
+    }
     if (!page_table_.get(b.id).is_resident()) {
       // Protects the bricks the last frame used: the view's working set is not evicted to make room
       // for another brick of the same view (that was the thrash and the stall of issue 14).
       if (auto a = cache_.allocate(b.id, frame_ - 1)) {
-        if (a->evicted.valid()) map(a->evicted, PageEntry::unmapped());
+        if (a->evicted.valid()) {
+          map(a->evicted, PageEntry::unmapped());
+          prefetched_unused_.erase(a->evicted);
+          unapplied_.erase(a->evicted);  // (its metadata stays cached)
+        }
+        if (prefetched) {
+          // Stamped older than the last frame: the first room a frame's own load may take.
+          cache_.view().touch(a->slot, frame_ >= 2 ? frame_ - 2 : 0);
+          prefetched_unused_.insert(b.id);
+          ++prefetched_this_frame_;
+        }
         if (device_memory_) {
           // The device copies the brick (asynchronously); the host slot stays untouched (and, being
           // allocated for overwrite, uncommitted): the host only does the bookkeeping.
@@ -195,7 +253,7 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
           if (cache_.has_labels() && !b.labels.empty()) u.labels = b.labels;
           uploads_.push_back(u);
           map(b.id, PageEntry::resident(a->slot));
-          ++loads_this_frame_;
+          if (!prefetched) ++loads_this_frame_;
           staged_.push_back(std::move(b));
           continue;
         }
@@ -206,7 +264,7 @@ void OutOfCoreRenderer::upload(const Cull& cull) {
           std::memcpy(lab.data(), b.labels.data(), std::min(lab.size(), b.labels.size()));
         }
         map(b.id, PageEntry::resident(a->slot));
-        ++loads_this_frame_;
+        if (!prefetched) ++loads_this_frame_;
       }
       // else: every slot holds a brick the last frame used; the brick is requested again when there
       // is room (resolve_misses requests no more than room()).
@@ -228,6 +286,7 @@ OutOfCoreRenderer::Resolved OutOfCoreRenderer::resolve_misses(const Cull& cull) 
   const std::vector<BrickId> ids = misses_.drain();
   Resolved res;
   std::vector<BrickId> load, data;
+  std::vector<bool> refine;  // per data load: its metadata refines a coarser NON_EMPTY leaf
   for (const BrickId id : ids) {
     if (loader_.failed(id)) continue;
     const std::uint32_t n = node_for_brick(id);
@@ -240,10 +299,10 @@ OutOfCoreRenderer::Resolved OutOfCoreRenderer::resolve_misses(const Cull& cull) 
       std::vector<std::uint64_t> keys;
       for_each_culling_block(id, [&](ivec3 c) {
         keys.push_back(BrickId::pack(id.level(), c).bits);
-        cached = cached && metadata_.count(keys.back()) > 0;
+        cached = cached && metadata_.contains(keys.back());
       });
       if (cached) {
-        for (std::uint64_t key : keys) apply_metadata(key, metadata_.at(key), cull);
+        for (std::uint64_t key : keys) apply_metadata(key, metadata_.at(key, frame_), cull);
       } else if (metadata_pending_.insert(id.bits).second) {
         load.push_back(id);  // metadata loads are always made: culling needs them
       }
@@ -259,6 +318,12 @@ OutOfCoreRenderer::Resolved OutOfCoreRenderer::resolve_misses(const Cull& cull) 
       }
     } else if (!e.is_resident()) {
       data.push_back(id);
+      // A NON_EMPTY leaf coarser than this brick's culling blocks (known from a coarser level):
+      // the brick's own metadata, computed when it arrives, refines the tree as far as the level of
+      // detail the rays now ask for (zooming in regains empty-space skipping there).
+      bool known = true;
+      for_each_culling_block(id, [&](ivec3 c) { known = known && metadata_.contains(BrickId::pack(id.level(), c).bits); });
+      refine.push_back(leaf && int(nd.depth) < tree_.levels() - id.level() && !known);
     }
   }
   // Data loads only as far as there is room: a brick loaded without a slot would be dropped and
@@ -266,6 +331,10 @@ OutOfCoreRenderer::Resolved OutOfCoreRenderer::resolve_misses(const Cull& cull) 
   res.loadable = data.size();
   const std::size_t n = std::min(data.size(), room());
   load.insert(load.end(), data.begin(), data.begin() + std::ptrdiff_t(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    if (refine[i]) metadata_pending_.insert(data[i].bits);
+  }
+  for (const BrickId id : load) prefetch_requested_.erase(id);  // the loader promotes them
   res.requested = loader_.request(load);
   res.changed = res.changed || res.requested > 0;
   return res;
@@ -301,7 +370,7 @@ void OutOfCoreRenderer::recull(const Cull& cull) {
   // (nothing is recomputed or reloaded), and forget Empty mappings made under the old culling.
   std::vector<std::pair<std::uint64_t, const BlockMetadata*>> entries;
   entries.reserve(metadata_.size());
-  for (const auto& [key, m] : metadata_) entries.emplace_back(key, &m);
+  metadata_.for_each([&](std::uint64_t key, const BlockMetadata& m) { entries.emplace_back(key, &m); });
   std::sort(entries.begin(), entries.end(), [](const auto& a, const auto& b) {
     BrickId x, y;
     x.bits = a.first;
@@ -325,13 +394,15 @@ void OutOfCoreRenderer::touch_used_bricks() {
   for (std::uint32_t s = 0; s < cache_.slot_count(); ++s) {
     if (cache_.last_used(s) != frame_) continue;
     const BrickId id = cache_.brick_in(s);
-    if (id.valid()) tree_.touch(node_for_brick(id), frame_);
+    if (!id.valid()) continue;
+    tree_.touch(node_for_brick(id), frame_);
+    for_each_culling_block(id, [&](ivec3 c) { metadata_.touch(BrickId::pack(id.level(), c).bits, frame_); });
   }
 }
 
 std::size_t OutOfCoreRenderer::metadata_blocks_in(const Box3& box) const {
   std::size_t n = 0;
-  for (const auto& [key, m] : metadata_) {
+  metadata_.for_each([&](std::uint64_t key, const BlockMetadata&) {
     BrickId id;
     id.bits = key;
     const vec3 s = layout_.level_spacing(id.level()) * float(block_);
@@ -340,7 +411,7 @@ std::size_t OutOfCoreRenderer::metadata_blocks_in(const Box3& box) const {
         hi.z > box.lo.z) {
       ++n;
     }
-  }
+  });
   return n;
 }
 
@@ -370,6 +441,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
 
   const std::uint64_t evictions_before = cache_.evictions();
   loads_this_frame_ = 0;
+  prefetched_this_frame_ = 0;
   metadata_computed_this_frame_ = 0;
   if (device_memory_) device_->begin_frame();  // last frame's uploads have landed
   const std::uint64_t vk = view_key(scene.camera, s, key);
@@ -378,30 +450,23 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
     overflow_at_ = -1;  // a new view may fit where the last did not
     need_footprint_ = 0;
   }
+  const std::size_t in_flight_before = loader_.pending();
+  const bool waiting = in_flight_before > prefetch_requested_.size();  // the frame's own loads
   upload(cull);
-  const Resolved resolved = resolve_misses(cull);
+  Resolved resolved = resolve_misses(cull);
+  // Prefetched bricks the last frame sampled: their metadata now refines the tree.
+  for (const BrickId id : apply_next_) {
+    for_each_culling_block(id, [&](ivec3 cb) {
+      const std::uint64_t k = BrickId::pack(id.level(), cb).bits;
+      if (const BlockMetadata* m = metadata_.find(k, frame_)) apply_metadata(k, *m, cull);
+    });
+    resolved.changed = true;
+  }
+  apply_next_.clear();
   const int pressure_before = pressure_;
   adapt_pressure(resolved);
-  tree_.propagate();
-  tree_.collapse_homogeneous();
-  st.time_ms.metadata = t.ms();
-
-  t = Timer();
-  tree_.retire_unused(frame_, settings_.retire_frames);
-  st.time_ms.tree = t.ms();
-  st.tree_nodes = tree_.node_count();
-  st.metadata_blocks = metadata_.size();
-  st.metadata_computed = metadata_computed_this_frame_;
 
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
-  SkipInputs skip;
-  skip.method = s.method;
-  if (s.method == SkipMethod::SparseLeap) {
-    pipeline_.geometry(tree_, st);
-    // The short-gap threshold stays in level-0 steps: conservative for any coarser grid.
-    skip.lists = pipeline_.lists(tree_, s.method, gen, s.gap_eps * s.step * d.min_spacing(), st);
-  }
-
   // Level of detail and the frame's sample grid. One global grid per frame keeps every method's
   // samples identical (DESIGN.md §8); its spacing follows the finest level any sample can use this
   // frame (the level at the volume's nearest point), so a view of a whole terabyte volume does not
@@ -422,6 +487,36 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   const float nearest_t = gen.orthographic ? 0.0f : glm::length(nearest - gen.eye);
   const int finest = lod.level_at(nearest_t);
   const float step = s.step * float(1 << finest);
+
+  // Before the tree is used: provisional EMPTY where this frame wants a finer level opens now.
+  resolved.changed = open_provisional(cull, lod, gen) || resolved.changed;
+  tree_.propagate();
+  tree_.collapse_homogeneous();
+  st.time_ms.metadata = t.ms();
+
+  t = Timer();
+  tree_.retire_unused(frame_, settings_.retire_frames);
+  // Metadata beyond its capacity, least recently used first: a dropped block is UNKNOWN when next
+  // needed (read again for it), so nothing may still refer to it as provisional or opened.
+  for (const std::uint64_t k : metadata_.evict(frame_)) {
+    provisional_.erase(k);
+    opened_.erase(k);
+  }
+  st.time_ms.tree = t.ms();
+  st.tree_nodes = tree_.node_count();
+  st.tree_bytes = tree_.memory_bytes();
+  st.metadata_blocks = metadata_.size();
+  st.metadata_bytes = metadata_.memory_bytes();
+  st.metadata_computed = metadata_computed_this_frame_;
+
+  SkipInputs skip;
+  skip.method = s.method;
+  skip.clip = clip_;
+  if (s.method == SkipMethod::SparseLeap) {
+    pipeline_.geometry(tree_, st);
+    // The short-gap threshold stays in level-0 steps: conservative for any coarser grid.
+    skip.lists = pipeline_.lists(tree_, s.method, gen, s.gap_eps * s.step * d.min_spacing(), st);
+  }
 
   const CastParams p = make_cast_params(s, d, *scene.tf, scene.enabled, source_->has_labels(), step, lod);
 
@@ -445,13 +540,29 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   c.present = true;
   c.frame = frame_;
   c.resident_mb = cache_.resident_mb();
-  for (std::uint32_t sl = 0; sl < cache_.slot_count(); ++sl) c.hits += cache_.last_used(sl) == frame_ ? 1u : 0u;
-  c.misses = misses_.size();
+  for (std::uint32_t sl = 0; sl < cache_.slot_count(); ++sl) {
+    if (cache_.last_used(sl) != frame_) continue;
+    ++c.hits;
+    const BrickId id = cache_.brick_in(sl);
+    if (!prefetched_unused_.empty() && prefetched_unused_.erase(id)) {
+      ++c.prefetch_hits;
+      if (unapplied_.erase(id)) apply_next_.push_back(id);
+    }
+  }
   c.loads = loads_this_frame_;
+  c.stall = waiting && c.loads == 0;
+  c.prefetched = prefetched_this_frame_;
   c.evictions = cache_.evictions() - evictions_before;
-  c.pending = loader_.pending();
-  c.failed = loader_.failed_count();
-  c.page_table_kb = page_table_.memory_kb();
+  // The frame's own loads in flight; prefetches are not what the view waits for.
+  const std::size_t in_flight = loader_.pending();
+  c.pending = in_flight > prefetch_requested_.size() ? in_flight - prefetch_requested_.size() : 0;
+  c.prefetch_pending = in_flight - c.pending;
+  const LoaderCounts lc = loader_.counts();
+  c.failed = lc.failed;
+  c.bricks_retried = lc.bricks_retried;
+  c.retries = lc.retries;
+  c.recovered = lc.recovered;
+  c.page_table_bytes = page_table_.memory_bytes();
   std::uint64_t incomplete = 0, coarsened = 0;
   for (std::uint32_t k = 0; k < SampleShortfall::kStripes; ++k) {
     incomplete += shortfall_[k * SampleShortfall::kStride];
@@ -460,8 +571,11 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   const double samples = double(std::max<std::uint64_t>(st.samples, 1));
   c.completeness = 1.0 - std::min(1.0, double(incomplete) / samples);
   c.lod_coarsened = std::min(1.0, double(coarsened) / samples);
+  // Failed bricks are missed every frame, but nothing will load them: not counted as misses.
   for (const BrickId id : misses_.drain()) {
-    if (!page_table_.get(id).is_resident() && !loader_.failed(id)) ++c.bricks_missing;
+    if (loader_.failed(id)) continue;
+    ++c.misses;
+    if (!page_table_.get(id).is_resident()) ++c.bricks_missing;
   }
   const double slot_mb = double(cache_.slot_bytes()) / double(1 << 20);
   c.cache_mb = double(cache_.slot_count()) * slot_mb;
@@ -477,13 +591,14 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   const bool settled = !may_refine && (c.misses == 0 || (!resolved.changed && c.loads == 0 &&
                                                          c.misses == misses_last_ && pressure_ == pressure_before));
   misses_last_ = c.misses;
-  converged_ = settled && c.pending == 0 && metadata_pending_.empty();
+  converged_ = settled && c.pending == 0 && metadata_pending_.empty() && apply_next_.empty();
   if (!converged_) {
     converged_at_ = -1;
   } else if (converged_at_ < 0) {
     converged_at_ = int(frame_);
   }
   c.converged_at_frame = converged_at_;
+  if (settings_.prefetch) prefetch(scene, s, lod, gen, c);
 
   pipeline_.finish_frame(frame, s, &tree_, gen, total);
   return frame;
@@ -499,16 +614,15 @@ void OutOfCoreRenderer::cast(const CastRequest& r, Frame& frame) {
     device_->cast(r, frame, fb);
     return;
   }
-  const PageTableView host = page_table_.view();
   std::sort(dirty_.dir_index.begin(), dirty_.dir_index.end());
   dirty_.dir_index.erase(std::unique(dirty_.dir_index.begin(), dirty_.dir_index.end()), dirty_.dir_index.end());
   dirty_.dir_value.resize(dirty_.dir_index.size());
-  for (std::size_t k = 0; k < dirty_.dir_index.size(); ++k) dirty_.dir_value[k] = host.directory[dirty_.dir_index[k]];
+  for (std::size_t k = 0; k < dirty_.dir_index.size(); ++k) dirty_.dir_value[k] = page_table_.directory_word(dirty_.dir_index[k]);
   std::sort(dirty_.pool_index.begin(), dirty_.pool_index.end());
   dirty_.pool_index.erase(std::unique(dirty_.pool_index.begin(), dirty_.pool_index.end()), dirty_.pool_index.end());
   dirty_.pool_value.resize(dirty_.pool_index.size());
   for (std::size_t k = 0; k < dirty_.pool_index.size(); ++k) {
-    dirty_.pool_value[k] = host.pool[std::size_t(dirty_.pool_index[k])];
+    dirty_.pool_value[k] = page_table_.pool_word(dirty_.pool_index[k]);
   }
   device_->sync_page_table(dirty_);
   dirty_.clear();

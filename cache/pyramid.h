@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <vector>
 
 #include "cache/brick.h"
 #include "core/math.h"
@@ -21,6 +22,31 @@ namespace sl {
 //  - Labels: the most frequent non-zero label; ties go to the larger id; all zero gives 0.
 void reduce_mean(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1);
 void reduce_mode(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1);
+
+// The bounds pyramid beside it (DESIGN.md §4, "metadata is a min/max pyramid"): the least and the
+// largest of the same 2³ voxels, so level l voxel v bounds every level-0 voxel below it, and with it
+// every mean of them (each coarser level's values). NaN propagates: a NaN below makes the bound NaN,
+// which block metadata reads as "anything".
+void reduce_min(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1);
+void reduce_max(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1);
+
+// The label ids present below each voxel of a pyramid level >= 1 (labels bound like intensity: a
+// coarse voxel's set holds every level-0 id below it, so the label mode of any level is in it). Each
+// voxel holds the index of its set; sets are interned, since neighbouring voxels mostly share one.
+struct LabelSetLevel {
+  Volume sets;                            // u32 set index per voxel
+  std::vector<std::uint32_t> offsets{0};  // set i is ids[offsets[i], offsets[i + 1]), ascending
+  std::vector<std::uint32_t> ids;
+
+  std::span<const std::uint32_t> set(std::uint32_t i) const {
+    return {ids.data() + offsets[i], ids.data() + offsets[i + 1]};
+  }
+  std::size_t bytes() const;
+};
+
+// Level 1 from the level-0 label volume (integer type); level l + 1 from level l.
+LabelSetLevel reduce_label_sets(const Volume& labels);
+LabelSetLevel reduce_label_sets(const LabelSetLevel& finer);
 
 // Fills a brick's (B + 2)³ stored voxels of `elem` bytes each: stored voxel s holds level voxel
 // clamp(origin - 1 + s, 0, level_dims - 1), read from `src`, a dense array of dims src_dims holding

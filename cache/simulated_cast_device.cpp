@@ -25,7 +25,7 @@ void SimulatedCastDevice::configure(const DeviceConfig& c) {
 
 void SimulatedCastDevice::apply(const PageTableUpdate& u) {
   const std::uint64_t need = u.pool_words_needed();
-  if (need > pool_.size()) pool_.resize(std::size_t((need + kPageEntries - 1) / kPageEntries * kPageEntries), 0u);
+  if (need > pool_.size()) pool_.resize(std::size_t((need + kChunkWords - 1) / kChunkWords * kChunkWords), 0u);
   for (std::size_t k = 0; k < u.dir_index.size(); ++k) directory_[u.dir_index[k]] = u.dir_value[k];
   for (std::size_t k = 0; k < u.pool_index.size(); ++k) pool_[std::size_t(u.pool_index[k])] = u.pool_value[k];
 }
@@ -99,8 +99,12 @@ void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback&
     skip.lists = lists.view();
   }
   VirtualMemoryView vm = view();
-  vm.shortfall = r.host.shortfall;  // host counters: the simulated device counts as the CPU does
+  // Its own counters, added to the host's after the cast, as the CUDA device does.
+  shortfall_.assign(SampleShortfall::kWords, 0);
+  vm.shortfall = r.host.shortfall;
+  vm.shortfall.counters = r.host.shortfall.counters ? shortfall_.data() : nullptr;
   cast_virtual_frame(r.params, r.gen, r.vbox, skip, r.frame, vm, frame);
+  add_shortfall(r.host.shortfall, shortfall_);
   // Copied back once per frame: the distinct misses and the slots used in this frame.
   fb.misses = misses_->drain();
   fb.used_slots.clear();

@@ -58,6 +58,7 @@ class SimulatedCastDevice final : public CastDevice {
   std::uint64_t voxel_stride_ = 0, label_stride_ = 0;
   std::vector<std::byte> voxels_, labels_;  // the slot pool
   std::vector<std::uint32_t> usage_;
+  std::vector<std::uint64_t> shortfall_;   // SampleShortfall counters of the cast
   std::vector<std::uint32_t> directory_, pool_;
   std::unique_ptr<MissBuffer> misses_;
   std::vector<Pending> pending_;           // uploads in flight (landing at the next begin_frame)

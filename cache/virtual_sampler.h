@@ -26,6 +26,7 @@ namespace sl {
 struct SampleShortfall {
   static constexpr std::uint32_t kStripes = 16;
   static constexpr std::uint32_t kStride = 8;  // 64-byte lines: [0] incomplete, [1] coarsened
+  static constexpr std::uint32_t kWords = kStripes * kStride;
   std::uint64_t* counters = nullptr;           // kStripes * kStride words, zeroed before the cast
   LodParams footprint;                         // the frame's level of detail without pressure
   vec3 eye{0.0f};                              // ray origin of a perspective view (t = distance)
@@ -130,11 +131,15 @@ struct VirtualSampler {
     return cur;
   }
 
-  SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext& c) const {
+  // locate, counting the sample's shortfall: what every intensity sample goes through, whichever
+  // sampler reads the voxels (this one's software trilinear, the CUDA texture atlas).
+  SL_HOST_DEVICE SL_INLINE const Cursor& serve(const vec3& p, const SampleContext& c) const {
     const Cursor& k = locate(p, c);
     if (shortfall.counters) shortfall.count(p, c.level, k.complete);
-    return value(k, p);
+    return k;
   }
+
+  SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext& c) const { return value(serve(p, c), p); }
 
   SL_HOST_DEVICE SL_INLINE float value(const Cursor& k, const vec3& p) const {
     if (k.entry.is_resident()) return k.voxels.sample(p);

@@ -1,5 +1,7 @@
 #include "cache/volume_source.h"
 
+#include <algorithm>
+
 #include "cache/pyramid.h"
 #include "core/config.h"
 #include "core/error.h"
@@ -35,6 +37,10 @@ void VolumeSource::check_request(const BrickLayout& layout, BrickId id, std::spa
   SL_CHECK(out_labels.empty() || (has_labels() && out_labels.size() == n * std::size_t(voxel_size(label_type()))));
 }
 
+bool VolumeSource::bound_blocks(const BrickLayout&, int, int, std::span<const ivec3>, std::span<BlockMetadata>) const {
+  return false;
+}
+
 MemoryVolumeSource::MemoryVolumeSource(std::shared_ptr<const Volume> intensity, std::shared_ptr<const Volume> labels,
                                        std::string name)
     : intensity_(std::move(intensity)), labels_(std::move(labels)), name_(std::move(name)) {
@@ -45,13 +51,56 @@ MemoryVolumeSource::MemoryVolumeSource(std::shared_ptr<const Volume> intensity, 
   }
   levels_.resize(1);
   label_levels_.resize(1);
+  min_levels_.resize(1);
+  max_levels_.resize(1);
+  label_sets_.resize(1);
   ivec3 d = intensity_->dims();
   while (d.x > 1 || d.y > 1 || d.z > 1) {
     const std::size_t l = levels_.size();
     levels_.push_back(reduce_level(level(int(l) - 1), reduce_mean));
-    if (labels_) label_levels_.push_back(reduce_level(*label_level(int(l) - 1), reduce_mode));
+    min_levels_.push_back(reduce_level(l == 1 ? *intensity_ : min_levels_[l - 1], reduce_min));
+    max_levels_.push_back(reduce_level(l == 1 ? *intensity_ : max_levels_[l - 1], reduce_max));
+    if (labels_) {
+      label_levels_.push_back(reduce_level(*label_level(int(l) - 1), reduce_mode));
+      label_sets_.push_back(l == 1 ? reduce_label_sets(*labels_) : reduce_label_sets(label_sets_[l - 1]));
+    }
     d = levels_.back().dims();
   }
+}
+
+std::size_t MemoryVolumeSource::bounds_bytes() const {
+  std::size_t n = 0;
+  for (std::size_t l = 1; l < min_levels_.size(); ++l) {
+    n += min_levels_[l].desc().byte_size() + max_levels_[l].desc().byte_size();
+  }
+  for (std::size_t l = 1; l < label_sets_.size(); ++l) n += label_sets_[l].bytes();
+  return n;
+}
+
+bool MemoryVolumeSource::bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
+                                      std::span<BlockMetadata> out) const {
+  SL_CHECK(level >= 1 && level < levels() && layout.dims(level) == levels_[std::size_t(level)].dims());
+  SL_CHECK(blocks.size() == out.size());
+  const std::size_t l = std::size_t(level);
+  const VolumeView lo = min_levels_[l].view(), hi = max_levels_[l].view();
+  const VolumeView sets = labels_ ? label_sets_[l].sets.view() : VolumeView{};
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    ivec3 first, end;
+    dilated_block(lo.dims, blocks[i] * block, block, first, end);
+    BlockMetadata m = compute_box_metadata(lo, hi, labels_ ? &sets : nullptr, first, end);
+    if (labels_) {  // the set indices present -> the union of their ids
+      std::vector<std::uint32_t> ids;
+      for (const std::uint32_t s : m.labels) {
+        const auto set = label_sets_[l].set(s);
+        ids.insert(ids.end(), set.begin(), set.end());
+      }
+      std::sort(ids.begin(), ids.end());
+      ids.erase(std::unique(ids.begin(), ids.end()), ids.end());
+      m.labels = std::move(ids);
+    }
+    out[i] = std::move(m);
+  }
+  return true;
 }
 
 std::size_t MemoryVolumeSource::pyramid_bytes() const {

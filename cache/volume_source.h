@@ -10,6 +10,8 @@
 #include <vector>
 
 #include "cache/brick.h"
+#include "cache/pyramid.h"
+#include "core/block_metadata.h"
 #include "core/volume.h"
 
 namespace sl {
@@ -32,6 +34,16 @@ class VolumeSource {
   virtual void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                           std::span<std::byte> out_labels) const = 0;
 
+  // Culling bounds (DESIGN.md §4, "metadata is a min/max pyramid"): out[i] = the metadata of culling
+  // block blocks[i] of `level` >= 1 (edge `block` level voxels, dilated by one level voxel as
+  // dilated_block does) over every level-0 voxel below it, so that a block EMPTY at a coarse level is
+  // EMPTY at every finer one and zooming in never loses structure. Returns false when the source
+  // cannot bound its coarse levels (a stored pyramid without bounds): the renderer then derives
+  // their metadata from the level's own voxels and treats it as provisional. Thread-safe; throws as
+  // read_brick.
+  virtual bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
+                            std::span<BlockMetadata> out) const;
+
  protected:
   // Shared argument checks for implementations (internal errors: SL_CHECK).
   void check_request(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
@@ -43,6 +55,8 @@ class VolumeSource {
 // works: it costs about 1/7 of the volume's memory again (1/8 + 1/64 + ...), and in exchange every
 // read_brick is a plain clamped copy — cheap, trivially thread-safe, and coarse bricks never rescan
 // the full-resolution data (computing level l lazily would reread 8^l voxels per voxel, per brick).
+// Beside it, the bounds pyramid for culling (min and max per voxel, and the label set per voxel as
+// an interned set index): about 2/7 of the intensity's memory and 4/7 byte per voxel for labels.
 class MemoryVolumeSource final : public VolumeSource {
  public:
   // labels may be null. Throws InputError(name, ...) when labels are not an integer type or their
@@ -56,6 +70,8 @@ class MemoryVolumeSource final : public VolumeSource {
   const std::string& name() const override { return name_; }
   void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                   std::span<std::byte> out_labels) const override;
+  bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
+                    std::span<BlockMetadata> out) const override;
 
   // Level-l data (level 0 is the input), for tests and metadata; levels() reaches 1³.
   int levels() const { return int(levels_.size()); }
@@ -63,13 +79,16 @@ class MemoryVolumeSource final : public VolumeSource {
   const Volume* label_level(int l) const {
     return !labels_ ? nullptr : l == 0 ? labels_.get() : &label_levels_[std::size_t(l)];
   }
-  // Bytes held by levels >= 1 (the pyramid's extra cost).
+  // Bytes held by levels >= 1 (the pyramid's extra cost) and by the bounds pyramid.
   std::size_t pyramid_bytes() const;
+  std::size_t bounds_bytes() const;
 
  private:
   std::shared_ptr<const Volume> intensity_, labels_;
   std::string name_;
   std::vector<Volume> levels_, label_levels_;  // index 0 unused (the inputs are level 0)
+  std::vector<Volume> min_levels_, max_levels_;  // bounds; index 0 unused
+  std::vector<LabelSetLevel> label_sets_;        // index 0 unused
 };
 
 

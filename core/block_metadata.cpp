@@ -7,6 +7,7 @@
 #include <limits>
 #include <atomic>
 #include <string>
+#include <type_traits>
 
 #include "core/error.h"
 
@@ -34,32 +35,39 @@ BlockGrid make_block_grid(ivec3 dims, vec3 spacing, int block) {
   return g;
 }
 
-BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeView* labels, ivec3 origin,
-                                     ivec3 dims, ivec3 block_lo, int block) {
+void dilated_block(ivec3 dims, ivec3 lo, int block, ivec3& first, ivec3& end) {
+  first = glm::max(lo - 1, ivec3(0));
+  end = glm::min(lo + block + 1, dims);  // exclusive
+}
+
+BlockMetadata compute_box_metadata(const VolumeView& low, const VolumeView& high, const VolumeView* labels,
+                                   ivec3 lo, ivec3 hi) {
   ++g_computations;
-  // Dilated by one voxel: a trilinear sample anywhere in the block's world box reads voxels
-  // floor(p / spacing - 0.5) and that + 1, i.e. [lo - 1, lo + block] per axis (clamped); a
-  // nearest-voxel label lookup floor(p / spacing) stays within the same range even with rounding at
-  // the faces. Below, in the views' own coordinates.
-  const ivec3 lo = glm::max(block_lo - 1, ivec3(0)) - origin;
-  const ivec3 hi = glm::min(block_lo + block + 1, dims) - origin;  // exclusive
   SL_CHECK(glm::all(glm::lessThan(lo, hi)) && glm::all(glm::greaterThanEqual(lo, ivec3(0))) &&
-           glm::all(glm::lessThanEqual(hi, intensity.dims)));
-  SL_CHECK(!labels || labels->dims == intensity.dims);
+           glm::all(glm::lessThanEqual(hi, low.dims)));
+  SL_CHECK(high.dims == low.dims && (!labels || labels->dims == low.dims));
   BlockMetadata m;
   m.computed = true;
-  float vmin = intensity.value(lo.x, lo.y, lo.z);
-  float vmax = vmin;
+  float vmin = low.value(lo.x, lo.y, lo.z);
+  float vmax = high.value(lo.x, lo.y, lo.z);
   bool nan = false;  // float volumes: NaN compares false both ways, so min/max alone would skip it
-  for (int z = lo.z; z < hi.z; ++z) {
-    for (int y = lo.y; y < hi.y; ++y) {
-      for (int x = lo.x; x < hi.x; ++x) {
-        const float v = intensity.value(x, y, z);
-        vmin = v < vmin ? v : vmin;
-        vmax = v > vmax ? v : vmax;
-        nan = nan || v != v;
+  const auto scan = [&](auto one) {  // one: plain data (low is high), each voxel read once
+    for (int z = lo.z; z < hi.z; ++z) {
+      for (int y = lo.y; y < hi.y; ++y) {
+        for (int x = lo.x; x < hi.x; ++x) {
+          const float a = low.value(x, y, z);
+          const float b = decltype(one)::value ? a : high.value(x, y, z);
+          vmin = a < vmin ? a : vmin;
+          vmax = b > vmax ? b : vmax;
+          nan = nan || a != a || b != b;
+        }
       }
     }
+  };
+  if (low.data == high.data) {
+    scan(std::true_type{});
+  } else {
+    scan(std::false_type{});
   }
   // A NaN voxel makes every sample it touches NaN, which reads the transfer function's low end and
   // passes iso comparisons as "not below": the conservative range for such a block is everything.
@@ -84,6 +92,13 @@ BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeVi
     m.labels.shrink_to_fit();
   }
   return m;
+}
+
+BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeView* labels, ivec3 origin,
+                                     ivec3 dims, ivec3 block_lo, int block) {
+  ivec3 first, end;
+  dilated_block(dims, block_lo, block, first, end);
+  return compute_box_metadata(intensity, intensity, labels, first - origin, end - origin);
 }
 
 BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& intensity,

@@ -65,16 +65,33 @@ BlockGrid make_block_grid(ivec3 dims, vec3 spacing, int block = kDefaultBlockSiz
 struct BlockMetadata {
   float min = 0.0f;  // intensity range over the block dilated by one voxel, clamped to the volume
   float max = 0.0f;
-  bool has_labels = false;            // a label volume was given
+  // The ids present are listed: a label volume was given and its ids below the block are known (a
+  // source that cannot list them for a coarse block leaves this false: no culling by labels there).
+  bool has_labels = false;
   std::vector<std::uint32_t> labels;  // ids present in the dilated block, ascending, unique (incl. 0)
   bool computed = false;              // false: not yet computed (the lazy out-of-core path)
 };
 
-// The one computation of a culling block's metadata, in core and out of core: the block of edge
+// The voxels a culling block's metadata covers: the block of edge `block` whose first voxel is `lo`,
+// in a volume (or pyramid level) of `dims` voxels, dilated by one voxel and clamped: [first, end).
+// A trilinear sample anywhere in the block's world box reads voxels floor(p / spacing - 0.5) and that
+// + 1, i.e. [lo - 1, lo + block] per axis (clamped); a nearest-voxel label lookup floor(p / spacing)
+// stays within the same range even with rounding at the faces.
+void dilated_block(ivec3 dims, ivec3 lo, int block, ivec3& first, ivec3& end);
+
+// The metadata of the voxels [first, end) of the views' own coordinates: the least value of `low`,
+// the largest of `high` (the same view for plain data; a min and a max pyramid level where a coarse
+// block must bound every finer voxel below it, DESIGN.md §4) and the ids present in `labels` (null:
+// none). The views share dims and must cover the box. Counts one computation.
+BlockMetadata compute_box_metadata(const VolumeView& low, const VolumeView& high, const VolumeView* labels,
+                                   ivec3 first, ivec3 end);
+
+// A culling block's metadata from its own voxels, in core and out of core: the block of edge
 // `block` whose first voxel is `lo`, in a volume (or pyramid level) of `dims` voxels, dilated by one
-// voxel and clamped to the volume. The views hold the voxels from volume voxel `origin` on: the whole
-// volume in core (origin 0), a brick with its apron out of core (origin = the apron's first voxel);
-// they must cover the dilated block. `labels` may be null (no label volume). Counts one computation.
+// voxel and clamped to the volume (dilated_block). The views hold the voxels from volume voxel
+// `origin` on: the whole volume in core (origin 0), a brick with its apron out of core (origin = the
+// apron's first voxel); they must cover the dilated block. `labels` may be null (no label volume).
+// Counts one computation.
 BlockMetadata compute_block_metadata(const VolumeView& intensity, const VolumeView* labels, ivec3 origin,
                                      ivec3 dims, ivec3 lo, int block);
 

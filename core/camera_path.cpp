@@ -67,21 +67,57 @@ std::string camera_path_to_json(const CameraPath& p) {
   return j.dump(2);
 }
 
-CameraPath orbit_path(const vec3& extent, int frames) {
-  const Camera start = default_camera(extent);
-  CameraPath p;
-  p.frames = std::max(frames, 1);
+namespace {
+
+constexpr float kPi = 3.14159265f;
+
+// The orbit at frame i of n, with the eye at `scale` times the default distance.
+Camera orbit_camera(const Camera& start, int i, int n, float scale) {
   const vec3 offset = start.eye - start.center;
   const float radius = std::sqrt(offset.x * offset.x + offset.z * offset.z);
   const float phase = std::atan2(offset.z, offset.x);
-  // One keyframe per frame on the circle: the spline then passes exactly through every frame.
+  const float a = phase + 2.0f * kPi * float(i) / float(n);
+  Camera c = start;
+  c.eye = start.center + scale * vec3(radius * std::cos(a), offset.y, radius * std::sin(a));
+  return c;
+}
+
+}  // namespace
+
+CameraPath orbit_path(const vec3& extent, int frames) { return orbit_zoom_path(extent, frames, 0, 1.0f); }
+
+CameraPath orbit_zoom_path(const vec3& extent, int frames, int cycles, float closest) {
+  const Camera start = default_camera(extent);
+  CameraPath p;
+  p.frames = std::max(frames, 1);
+  // One keyframe per frame: the spline then passes exactly through every frame.
   for (int i = 0; i < p.frames; ++i) {
+    const float u = float(i) / float(p.frames);
+    const float scale = closest + (1.0f - closest) * 0.5f * (1.0f + std::cos(2.0f * kPi * float(cycles) * u));
+    p.keyframes.push_back(orbit_camera(start, i, p.frames, scale));
+  }
+  return p;
+}
+
+CameraPath zoom_in_path(const vec3& extent, int frames, float closest) {
+  const Camera start = default_camera(extent);
+  CameraPath p;
+  p.frames = std::max(frames, 1);
+  for (int i = 0; i < p.frames; ++i) {
+    const float u = p.frames > 1 ? float(i) / float(p.frames - 1) : 0.0f;
     Camera c = start;
-    const float a = phase + 2.0f * 3.14159265f * float(i) / float(p.frames);
-    c.eye = start.center + vec3(radius * std::cos(a), offset.y, radius * std::sin(a));
+    c.eye = start.center + std::pow(closest, u) * (start.eye - start.center);
     p.keyframes.push_back(c);
   }
   return p;
+}
+
+Camera extrapolate_camera(const Camera& previous, const Camera& current) {
+  Camera c = current;
+  c.eye = current.eye + (current.eye - previous.eye);
+  c.center = current.center + (current.center - previous.center);
+  if (glm::length(c.center - c.eye) < 1e-6f * (1.0f + glm::length(current.center - current.eye))) return current;
+  return c;
 }
 
 }  // namespace sl

@@ -13,6 +13,7 @@
 #include "core/octree_skip.h"
 #include "core/raycast.h"
 #include "core/render_mode.h"
+#include "core/sample_clip.h"
 #include "core/segment_list.h"
 
 namespace sl {
@@ -24,6 +25,7 @@ struct SkipInputs {
   SegmentListView lists;  // sparseleap, bbox
   SkipOctreeView octree;  // octree
   FineOccupancyView fine; // sparseleap: cells skipped inside sampled segments (empty: off; bbox never sets it)
+  SampleClip clip;        // distributed: only the samples in this rank's region (off: all)
 };
 
 // The pixel's ray and its span inside the volume box; false when the ray misses the box (nothing to
@@ -47,19 +49,47 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
                                         const Ray& ray, float t_entry, float t_exit, RayAccum& acc,
                                         std::uint32_t& misses) {
   const int k_end = sample_index(t_exit, t_entry, caster.p.inv_dt);
+  // The rank's samples of the global grid (all of them in a single process); every span is narrowed
+  // to them, so the spans still partition the rank's samples exactly (core/sample_clip.h).
+  int kc0 = 0, kc1 = k_end;
+  clip_samples(skip.clip, ray, t_entry, caster.p.dt, caster.p.inv_dt, kc0, kc1);
+  // Exact iso works on stretches of t instead of sample indices: the rank's share of the ray is its
+  // stretch inside the region box [t_in, t_out) (the whole ray in a single process). Neighbouring regions
+  // share the face, whose crossing both compute from the same plane, so the ranks of a k-d split
+  // partition the ray and each root is found by exactly one of them, from cells within a voxel of the
+  // region (as the trilinear samples near its faces).
+  const bool exact = caster.p.exact_iso();
+  float tc0 = t_entry, tc1 = t_exit;
+  if (exact && skip.clip.enabled) {
+    const Interval iv = intersect(ray, Box3{skip.clip.lo, skip.clip.hi});
+    if (iv.t0 > tc0) tc0 = iv.t0;
+    if (iv.t1 < tc1) tc1 = iv.t1;
+  }
+  const auto span = [&](float t0, float t1, bool unknown, const FineOccupancyView* fine) {
+    if (exact) {
+      const float a = t0 > tc0 ? t0 : tc0, b = t1 < tc1 ? t1 : tc1;
+      if (a < b) caster.march_exact(ray, a, b, acc, unknown);
+      return;
+    }
+    int k0 = sample_index(t0, t_entry, caster.p.inv_dt), k1 = sample_index(t1, t_entry, caster.p.inv_dt);
+    k0 = k0 > kc0 ? k0 : kc0;
+    k1 = k1 < kc1 ? k1 : kc1;
+    if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, unknown, fine);
+  };
   switch (skip.method) {
     case SkipMethod::None:
-      caster.march(ray, t_entry, 0, k_end, acc);
+      if (exact) {
+        caster.march_exact(ray, tc0, tc1, acc);
+      } else {
+        caster.march(ray, t_entry, kc0, kc1, acc);
+      }
       return 0;
     case SkipMethod::Octree: {
       std::uint32_t nodes = 0;
       for (float t = t_entry; t < t_exit && !acc.done;) {
         const KdRestartStep st = skip.octree.step(ray, t, t_exit);
         nodes += st.nodes_visited;
-        if (st.cls != OccupancyClass::Empty) {
-          caster.march_span(ray, t_entry, sample_index(st.t0, t_entry, caster.p.inv_dt),
-                            sample_index(st.t1, t_entry, caster.p.inv_dt), k_end, acc);
-        }
+        if (st.cls != OccupancyClass::Empty) span(st.t0, st.t1, false, nullptr);
         t = st.t1;
       }
       return nodes;
@@ -72,9 +102,7 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
       for (std::uint32_t k = 0; k < segments && !acc.done; ++k) {
         const RaySegment seg = list_segment(ev, n, k, t_exit);
         if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
-        caster.march_span(ray, t_entry, sample_index(seg.t0, t_entry, caster.p.inv_dt),
-                          sample_index(seg.t1, t_entry, caster.p.inv_dt), k_end, acc,
-                          seg.cls == OccupancyClass::Unknown, &skip.fine);
+        span(seg.t0, seg.t1, seg.cls == OccupancyClass::Unknown, &skip.fine);
         if (seg.cls == OccupancyClass::Unknown) ++misses;  // occupancy miss (resolved out of core)
       }
       return segments;

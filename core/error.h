@@ -22,4 +22,13 @@ class InputError : public std::runtime_error {
   std::string reason_;
 };
 
+// A failure that may not recur when the same read is tried again: a timeout, a dropped connection, an
+// HTTP 5xx, an injected transient fault. The brick loader retries these with backoff; any other
+// InputError fails the brick for good. Wrapping layers that add context (store, level, chunk) must
+// rethrow a TransientError as one, so the loader still sees it.
+class TransientError : public InputError {
+ public:
+  using InputError::InputError;
+};
+
 }  // namespace sl

@@ -5,6 +5,15 @@
 
 namespace sl {
 
+void validate_lighting(const Lighting& l) {
+  // VTK's ranges (vtkVolumeProperty): coefficients in [0, 1], specular power in [0, 128].
+  const auto in = [](float v, float lo, float hi) { return v >= lo && v <= hi; };  // false for NaN
+  if (!in(l.ambient, 0.0f, 1.0f)) throw InputError("--ambient", "must be in [0, 1]");
+  if (!in(l.diffuse, 0.0f, 1.0f)) throw InputError("--diffuse", "must be in [0, 1]");
+  if (!in(l.specular, 0.0f, 1.0f)) throw InputError("--specular", "must be in [0, 1]");
+  if (!in(l.shininess, 0.0f, 128.0f)) throw InputError("--shininess", "must be in [0, 128]");
+}
+
 void validate(const Scene& scene, const RenderSettings& s) {
   if (!scene.volume || scene.volume->empty()) throw InputError("render", "no volume");
   if (!scene.tf) throw InputError("render", "no transfer function");
@@ -13,6 +22,7 @@ void validate(const Scene& scene, const RenderSettings& s) {
   }
   if (!(s.step > 0.0f) || s.step > 64.0f) throw InputError("--step", "step must be in (0, 64]");
   validate_fine_cell(s.fine_cell);
+  validate_lighting(s.lighting);
   if (scene.labels && scene.labels->dims() != scene.volume->dims()) {
     throw InputError("--labels", "label volume dims differ from the intensity volume's");
   }
@@ -28,7 +38,12 @@ CastParams make_cast_params(const RenderSettings& s, const VolumeDesc& d, const 
   p.dt = step * d.min_spacing();
   p.inv_dt = 1.0f / p.dt;
   p.iso = s.iso;
+  p.iso_method = s.iso_method;
   p.ert = s.ert;
+  p.lighting = s.lighting;
+  p.lighting.enabled = s.lighting.enabled && s.mode == RenderMode::Dvr;
+  // The guard: 1e-3 of the transfer function's value range per voxel of the finest level.
+  p.lighting.min_gradient = 1e-3f * (tf.vmax() - tf.vmin()) / d.min_spacing();
   p.spacing = d.spacing;
   p.tf = tf.view(step);  // α' = 1 − (1 − α)^(dt / min spacing), and dt / min spacing = step
   p.label_mask = enabled != nullptr && label_volume && s.mode != RenderMode::Labels;

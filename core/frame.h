@@ -20,7 +20,9 @@ struct RenderSettings {
   SkipMethod method = SkipMethod::SparseLeap;
   float step = 0.5f;       // sample distance in units of the smallest voxel spacing
   float iso = 128.0f;
+  IsoMethod iso_method = IsoMethod::Exact;  // iso mode: exact per-cell roots or sampled bisection
   bool ert = false;
+  Lighting lighting;       // dvr: Blinn–Phong with a headlight (--shade; VTK's parameters and defaults)
   int block = 16;          // culling block edge in voxels
   int fine_cell = 4;       // fine occupancy cell edge in voxels inside SparseLeap segments (0: off)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
@@ -43,6 +45,8 @@ struct Frame {
 
 // Validates the scene and settings; InputError names the offending option or file.
 void validate(const Scene& scene, const RenderSettings& settings);
+// The lighting parameters in VTK's ranges; InputError names the option.
+void validate_lighting(const Lighting& lighting);
 
 // The per-frame ray-casting parameters, built here for every renderer and backend. `step`: the sample
 // distance in units of the smallest voxel spacing (the settings' step in core; out of core the step of

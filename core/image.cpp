@@ -9,8 +9,10 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <memory>
 
@@ -99,15 +101,52 @@ Image read_exr(const std::string& path) {
   }
 }
 
+namespace {
+
+// libpng's own stdio writer turns a failed fwrite into "libpng error: Write Error" printed on stderr
+// and drops errno; this one keeps the reason (ENOSPC of a full disk or /dev/full) for the one error
+// line (DESIGN.md §10) and prints nothing itself.
+struct PngSink {
+  std::FILE* file = nullptr;
+  int error = 0;        // errno of the write that failed
+  std::string message;  // libpng's reason otherwise
+};
+
+void png_sink_write(png_structp png, png_bytep data, std::size_t n) {
+  auto* s = static_cast<PngSink*>(png_get_io_ptr(png));
+  if (std::fwrite(data, 1, n, s->file) != n) {
+    s->error = errno;
+    png_error(png, "write error");
+  }
+}
+
+void png_sink_flush(png_structp png) {
+  auto* s = static_cast<PngSink*>(png_get_io_ptr(png));
+  if (std::fflush(s->file) != 0) {
+    s->error = errno;
+    png_error(png, "write error");
+  }
+}
+
+[[noreturn]] void png_sink_error(png_structp png, png_const_charp message) {
+  static_cast<PngSink*>(png_get_error_ptr(png))->message = message;
+  png_longjmp(png, 1);
+}
+
+void png_sink_warning(png_structp, png_const_charp) {}
+
+}  // namespace
+
 void write_png(const std::string& path, const Image& img) {
   AtomicFile out(path);
-  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  PngSink sink{out.stream(), 0, {}};
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, &sink, png_sink_error, png_sink_warning);
   png_infop info = png ? png_create_info_struct(png) : nullptr;
   std::vector<unsigned char> row(std::size_t(img.width) * 3);
   volatile bool ok = png && info;  // volatile: survives libpng's longjmp
   if (ok && setjmp(png_jmpbuf(png))) ok = false;
   if (ok) {
-    png_init_io(png, out.stream());
+    png_set_write_fn(png, &sink, png_sink_write, png_sink_flush);
     png_set_IHDR(png, info, img.width, img.height, 8, PNG_COLOR_TYPE_RGB, PNG_INTERLACE_NONE,
                  PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
     png_set_sRGB(png, info, PNG_sRGB_INTENT_PERCEPTUAL);
@@ -124,7 +163,11 @@ void write_png(const std::string& path, const Image& img) {
     png_write_end(png, nullptr);
   }
   png_destroy_write_struct(png ? &png : nullptr, info ? &info : nullptr);
-  if (!ok) throw InputError(path, "cannot write PNG");
+  if (!ok) {
+    // No message: libpng could not even allocate its structures.
+    const std::string why = sink.error ? std::strerror(sink.error) : sink.message.empty() ? "out of memory" : sink.message;
+    throw InputError(path, "cannot write PNG: " + why);
+  }
   out.commit();
 }
 

@@ -118,6 +118,7 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   }
   st.time_ms.tree = t.ms();
   st.tree_nodes = S.tree->node_count();
+  st.tree_bytes = S.tree->memory_bytes();
 
   pipeline_.geometry(*S.tree, st);
   if (s.method == SkipMethod::Octree) {

@@ -60,7 +60,9 @@ float json_number(const nlohmann::json& j, const char* key, const std::string& o
   const auto& v = j[key];
   if (!v.is_number()) throw InputError(origin, std::string("\"") + key + "\" must be a number");
   const double d = v.get<double>();
-  if (!std::isfinite(d)) throw InputError(origin, std::string("\"") + key + "\" is not finite");
+  // Finite as the float it is kept as: 1e60 is a finite double but an infinite float (which JSON
+  // cannot write back; found by the camera_path fuzzer).
+  if (!std::isfinite(float(d))) throw InputError(origin, std::string("\"") + key + "\" is not finite as a float");
   return float(d);
 }
 

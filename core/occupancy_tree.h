@@ -96,6 +96,10 @@ class OccupancyTree {
   const std::vector<OccupancyNode>& nodes() const { return nodes_; }  // includes free slots
   std::size_t node_count() const { return nodes_.size() - 8 * free_groups_.size(); }  // live nodes
   std::size_t leaf_count() const;
+  // Memory held: the node pool (free groups included, reused before it grows) and the free list.
+  std::size_t memory_bytes() const {
+    return nodes_.capacity() * sizeof(OccupancyNode) + free_groups_.capacity() * sizeof(std::uint32_t);
+  }
   bool is_leaf(std::uint32_t i) const { return nodes_[i].children == kNone; }
   std::uint32_t child(std::uint32_t i, int octant) const { return nodes_[i].children + std::uint32_t(octant); }
 

@@ -8,12 +8,14 @@
 #include <cstdint>
 
 #include "core/config.h"
+#include "core/exact_iso.h"
 #include "core/fine_occupancy.h"
 #include "core/labels.h"
 #include "core/math.h"
 #include "core/ray.h"
 #include "core/render_mode.h"
 #include "core/sampling.h"
+#include "core/shading.h"
 #include "core/transfer_function.h"
 
 namespace sl {
@@ -53,6 +55,8 @@ struct DenseSampler {
   DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
 
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
+  // Voxel v (clamped) of the one level: exact iso's cell corners without a trilinear blend.
+  SL_HOST_DEVICE SL_INLINE float voxel(const ivec3& v, const SampleContext&) const { return volume.voxel_clamped(v); }
   SL_HOST_DEVICE SL_INLINE std::uint32_t label_at(const vec3& p, const SampleContext&) const {
     return labels.data ? labels.label_at(p) : 0u;
   }
@@ -66,16 +70,24 @@ struct CastParams {
   float dt = 0.5f;         // world distance between samples = step * min(spacing)
   float inv_dt = 2.0f;
   float iso = 0.5f;
+  IsoMethod iso_method = IsoMethod::Exact;
   bool ert = false;        // early ray termination at A >= ert_threshold
   float ert_threshold = 0.99f;
   bool label_mask = false; // a sample contributes only where its label is enabled
   vec3 spacing{1.0f};
   TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md §8)
+  Lighting lighting;       // dvr: Blinn–Phong on the gradient (core/shading.h) when enabled
   LabelSetView labels;
   LodParams lod;
+
+  // Iso mode by exact per-cell roots (march_exact on the ray's stretches) instead of grid samples.
+  SL_HOST_DEVICE SL_INLINE bool exact_iso() const { return mode == RenderMode::Iso && iso_method == IsoMethod::Exact; }
 };
 
 // Accumulated state of one ray (front-to-back, premultiplied).
+// Level-of-detail changes one exact-iso walk follows along a ray (LodParams levels; brick.h's maximum).
+inline constexpr int kMaxLodPasses = 16;
+
 struct RayAccum {
   vec3 color{0.0f};
   float alpha = 0.0f;
@@ -210,7 +222,9 @@ struct RayCaster {
           break;
         }
         if (!visible_label(pos, ctx)) break;
-        if (!composite(p.tf.rgb_at(tc), a, acc)) return false;
+        vec3 rgb = p.tf.rgb_at(tc);
+        if (p.lighting.enabled) rgb = blinn_phong(rgb, volume.gradient(pos, p.spacing, ctx), ray.dir, p.lighting);
+        if (!composite(rgb, a, acc)) return false;
         break;
       }
       case RenderMode::Labels: {
@@ -265,6 +279,119 @@ struct RayCaster {
     return march(ray, t_entry, k0, k1, acc, unknown, fine);
   }
 
+  // Exact iso (core/exact_iso.h) on the ray's stretch [ta, tb): walks the voxel-centre cells the ray
+  // crosses, skips those whose corners all lie on one side of the iso value, and takes the first root of
+  // the cubic ray polynomial of the others by LR81. Returns false once the ray has hit (terminated).
+  // Roots are accepted in [ta, tb) only, so consecutive stretches of a ray (a method's spans, a rank's
+  // share) find each root exactly once; a root is computed from its whole cell, whatever the stretch.
+  SL_HOST_DEVICE bool march_exact(const Ray& ray, float ta, float tb, RayAccum& acc, bool unknown = false) const {
+    if (acc.done) return false;
+    if (!(tb > ta)) return true;
+    RayAccum a = acc;  // locals, as march()
+    const Ray r = ray;
+    const RayCaster self = *this;
+    const bool alive = self.march_exact_local(r, ta, tb, a, unknown);
+    acc = a;
+    return alive;
+  }
+
+ private:
+  // The value minus the iso value at the centre of voxel v of the sampled level (voxel size h); the
+  // sampler clamps at the faces, which makes the border cells' corners repeat the edge voxels. A
+  // sampler with a direct voxel read (in core) is read directly: the same value, no blend.
+  SL_HOST_DEVICE SL_INLINE float corner(const ivec3& v, const vec3& h, const SampleContext& ctx) const {
+    if constexpr (requires { volume.voxel(v, ctx); }) {
+      return volume.voxel(v, ctx) - p.iso;
+    } else {
+      return volume.sample((vec3(v) + 0.5f) * h, ctx) - p.iso;
+    }
+  }
+
+  SL_HOST_DEVICE bool march_exact_local(const Ray& ray, float ta, float tb, RayAccum& acc, bool unknown) const {
+    SampleContext ctx;
+    ctx.occupancy_unknown = unknown;
+    const bool lod_varies = !p.lod.constant();
+    float t = ta;
+    // One pass per level of detail along the ray (one pass in core or with a pinned level).
+    for (int pass = 0; pass < 2 * kMaxLodPasses && t < tb; ++pass) {
+      ctx.level = p.lod.level_at(t);
+      const vec3 h = p.spacing * float(1 << ctx.level);
+      const vec3 inv_h = 1.0f / h;
+      // Root tolerance: 1e-6 of the cell edge.
+      const float tol = 1e-6f * fminf(h.x, fminf(h.y, h.z));
+      CellWalk walk(ray, inv_h, t);
+      CellCorners c;
+      for (int i = 0; i < 8; ++i) c.v[i] = corner(walk.cell + ivec3(i & 1, (i >> 1) & 1, (i >> 2) & 1), h, ctx);
+      acc.samples += 8;
+      // Bounded for the device: a ray crosses at most |Δu|_1 + 3 cells.
+      const float span_cells = (fabsf(walk.ud.x) + fabsf(walk.ud.y) + fabsf(walk.ud.z)) * (tb - t);
+      const int max_cells = span_cells < 1.0e8f ? int(span_cells) + 8 : 100000008;
+      bool relevel = false;
+      for (int n = 0;; ++n) {
+        if (walk.t1 > walk.t0 && c.may_cross() && cell_hit(ray, walk, c, t, tb, inv_h, tol, ctx, acc)) return false;
+        if (!(walk.t1 < tb) || n >= max_cells) break;
+        const int axis = walk.axis, bit = 1 << axis;
+        const bool up = walk.step > 0;
+        walk.advance();
+        if (lod_varies && p.lod.level_at(walk.t0) != ctx.level) {
+          t = walk.t0;  // the walk restarts on the new level's cells
+          relevel = true;
+          break;
+        }
+        // The four corners on the shared face carry over; the other four are fetched.
+        for (int i = 0; i < 8; ++i) {
+          if (((i & bit) != 0) == up) continue;  // i: a corner on the face left behind
+          c.v[i] = c.v[i ^ bit];
+        }
+        for (int i = 0; i < 8; ++i) {
+          if (((i & bit) != 0) != up) continue;  // i: a corner on the new far face
+          c.v[i] = corner(walk.cell + ivec3(i & 1, (i >> 1) & 1, (i >> 2) & 1), h, ctx);
+        }
+        acc.samples += 4;
+      }
+      if (!relevel) break;
+    }
+    return true;
+  }
+
+  // The first root in [t_lo, tb) of the cell's ray polynomial whose label is shown: shades it and ends
+  // the ray (true), or false when the cell has none.
+  SL_HOST_DEVICE bool cell_hit(const Ray& ray, const CellWalk& walk, const CellCorners& c, float t_lo, float tb,
+                               const vec3& inv_h, float tol, const SampleContext& ctx, RayAccum& acc) const {
+    const float len = walk.t1 - walk.t0;
+    float b[4];
+    ray_bernstein(c, walk.local(walk.t0), walk.local(walk.t1), b);
+    const float tol_s = tol / len;
+    float s_from = 0.0f;
+    for (int attempt = 0; attempt < 8; ++attempt) {
+      float s = 0.0f;
+      if (!lr81_first_root(b, s_from, tol_s, s)) return false;
+      const float th = walk.t0 + s * len;
+      if (!(th < tb)) return false;  // also NaN (a NaN voxel)
+      // Past the root by twice the tolerance: the next search cannot find it again.
+      const float s_next = s + 2.0f * tol_s;
+      if (th < t_lo) {
+        const float s_lo = (t_lo - walk.t0) / len;
+        s_from = s_next > s_lo ? s_next : s_lo;
+        continue;
+      }
+      const vec3 hit = ray.at(th);
+      if (!visible_label(hit, ctx)) {
+        s_from = s_next;  // masked out: the ray goes on, as the sampled method's does
+        continue;
+      }
+      const vec3 grad = trilinear_gradient_local(c, walk.local(th)) * inv_h;
+      acc.color = shade_headlight(vec3(p.tf.lookup(p.iso)), grad, ray.dir);
+      acc.alpha = 1.0f;
+      acc.hit_t = th;
+      acc.done = true;
+      ++acc.useful_samples;
+      return true;
+    }
+    return false;
+  }
+
+ public:
   // Refines a bracketed crossing by bisection, then shades it; false if its label is masked out.
   SL_HOST_DEVICE bool iso_hit(const Ray& ray, float ta, float va, float tb, float vb, const SampleContext& ctx,
                               RayAccum& acc) const {

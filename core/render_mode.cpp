@@ -20,6 +20,20 @@ SkipMethod parse_skip_method(const std::string& s) {
   throw InputError("--method", "unknown method '" + s + "' (expected none, bbox, octree or sparseleap)");
 }
 
+IsoMethod parse_iso_method(const std::string& s) {
+  if (s == "exact") return IsoMethod::Exact;
+  if (s == "sampled") return IsoMethod::Sampled;
+  throw InputError("--iso-method", "unknown iso method '" + s + "' (expected exact or sampled)");
+}
+
+const char* to_string(IsoMethod m) {
+  switch (m) {
+    case IsoMethod::Exact: return "exact";
+    case IsoMethod::Sampled: return "sampled";
+  }
+  return "?";
+}
+
 const char* to_string(RenderMode m) {
   switch (m) {
     case RenderMode::Dvr: return "dvr";

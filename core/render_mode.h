@@ -11,10 +11,17 @@ enum class RenderMode : std::uint8_t { Dvr = 0, Mip = 1, Iso = 2, Labels = 3 };
 // Empty-space skipping method; all produce the same image (DESIGN.md §8: one global sample grid).
 enum class SkipMethod : std::uint8_t { None = 0, BBox = 1, Octree = 2, SparseLeap = 3 };
 
+// How iso mode finds the surface (DESIGN.md §8): Exact, the first root of the trilinear interpolant per
+// cell (core/exact_iso.h, seed 004); Sampled, the first sample pair bracketing the iso value, refined by
+// bisection (misses a surface crossed twice within one step).
+enum class IsoMethod : std::uint8_t { Exact = 0, Sampled = 1 };
+
 // Parse/print the command-line names; parse throws InputError(option, reason).
 RenderMode parse_render_mode(const std::string& s);
 SkipMethod parse_skip_method(const std::string& s);
+IsoMethod parse_iso_method(const std::string& s);
 const char* to_string(RenderMode m);
 const char* to_string(SkipMethod m);
+const char* to_string(IsoMethod m);
 
 }  // namespace sl

@@ -129,6 +129,15 @@ struct DenseGrid {
     return trilerp<kPath>(r00, r00 + dy, r00 + dz, r00 + dz + dy, dx, fx, fy, fz);
   }
 
+  // Voxel v's value with v clamped to the volume (the corner values exact iso reads per cell: the
+  // trilinear sample at a voxel centre, without the blend).
+  SL_HOST_DEVICE SL_INLINE float voxel_clamped(const ivec3& v) const {
+    const int x = v.x < 0 ? 0 : (v.x >= dims.x ? dims.x - 1 : v.x);
+    const int y = v.y < 0 ? 0 : (v.y >= dims.y ? dims.y - 1 : v.y);
+    const int z = v.z < 0 ? 0 : (v.z >= dims.z ? dims.z - 1 : v.z);
+    return fetch(x, y, z);
+  }
+
   // The voxel containing world position p (nearest-neighbour lookup for labels), clamped. Truncation
   // equals floor after the clamp (a negative coordinate becomes 0 either way) and, unlike floorf,
   // is one instruction on baseline x86-64.

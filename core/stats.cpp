@@ -38,16 +38,22 @@ std::string stats_to_json(const Stats& s) {
   j["list_bytes"] = s.list_bytes;
   j["metadata_blocks"] = s.metadata_blocks;
   j["metadata_computed"] = s.metadata_computed;
+  if (s.cache.present) j["metadata_bytes"] = s.metadata_bytes;
   j["tree"] = {{"nodes", s.tree_nodes}};
+  j["tree_bytes"] = s.tree_bytes;
   j["depth_complexity"] = {{"avg", s.depth_complexity_avg}, {"max", s.depth_complexity_max}, {"min", s.depth_complexity_min}};
   if (s.cache.present) {
     j["frame"] = s.cache.frame;
     j["cache"] = {{"resident_mb", s.cache.resident_mb}, {"hits", s.cache.hits},       {"misses", s.cache.misses},
                   {"loads", s.cache.loads},             {"evictions", s.cache.evictions}, {"pending", s.cache.pending},
-                  {"failed", s.cache.failed},           {"bricks_missing", s.cache.bricks_missing}};
+                  {"failed", s.cache.failed},           {"bricks_missing", s.cache.bricks_missing},
+                  {"bricks_retried", s.cache.bricks_retried}, {"retries", s.cache.retries},
+                  {"recovered", s.cache.recovered},   {"prefetched", s.cache.prefetched},
+                  {"prefetch_hits", s.cache.prefetch_hits}, {"prefetch_pending", s.cache.prefetch_pending},
+                  {"stall", s.cache.stall}};
     j["completeness"] = s.cache.completeness;
     j["lod_coarsened"] = s.cache.lod_coarsened;
-    j["page_table_kb"] = s.cache.page_table_kb;
+    j["page_table_bytes"] = s.cache.page_table_bytes;
     j["converged_at_frame"] = s.cache.converged_at_frame;
   }
   return j.dump(2);
@@ -77,6 +83,12 @@ std::string stats_summary(const Stats& s) {
     std::snprintf(buf, sizeof buf, ", completeness %.3f, %.1f%% coarsened, %llu bricks missing",
                   s.cache.completeness, 100.0 * s.cache.lod_coarsened, (unsigned long long)s.cache.bricks_missing);
     line += buf;
+    if (s.cache.failed > 0 || s.cache.bricks_retried > 0) {
+      std::snprintf(buf, sizeof buf, "; %llu bricks failed, %llu retried (%llu retries, %llu recovered)",
+                    (unsigned long long)s.cache.failed, (unsigned long long)s.cache.bricks_retried,
+                    (unsigned long long)s.cache.retries, (unsigned long long)s.cache.recovered);
+      line += buf;
+    }
   }
   return line;
 }

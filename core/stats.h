@@ -20,9 +20,21 @@ struct CacheStats {
   std::uint64_t misses = 0;      // distinct bricks reported missing this frame (unified misses)
   std::uint64_t loads = 0;       // bricks made resident this frame
   std::uint64_t evictions = 0;   // bricks evicted this frame
-  std::uint64_t pending = 0;     // loads in flight
+  std::uint64_t pending = 0;     // the frame's own loads in flight (prefetches not included)
+  // Prefetch (OutOfCoreSettings::prefetch): bricks made resident by prefetch this frame, prefetched
+  // bricks sampled for the first time this frame, prefetches in flight.
+  std::uint64_t prefetched = 0;
+  std::uint64_t prefetch_hits = 0;
+  std::uint64_t prefetch_pending = 0;
+  // A stall (issue 14): the frame began with its own loads in flight and made none resident.
+  bool stall = false;
   std::uint64_t failed = 0;      // bricks that failed to load (reported once each)
-  double page_table_kb = 0;
+  // Transient read failures retried with backoff (issue 15), like `failed` counted since the first
+  // frame: bricks retried, retry reads, and retried bricks that then loaded.
+  std::uint64_t bricks_retried = 0;
+  std::uint64_t retries = 0;
+  std::uint64_t recovered = 0;
+  std::uint64_t page_table_bytes = 0;  // page-table memory held (directory, chunks, bookkeeping)
   int converged_at_frame = -1;   // first frame with nothing left to load or resolve (-1: not yet)
   // Cache pressure (DESIGN.md §4): share of samples served at the level chosen for them (after any
   // coarsening), share coarser than the pixel footprint asks because of pressure, bricks wanted
@@ -53,7 +65,9 @@ struct Stats {
   std::uint64_t list_bytes = 0;         // storage of the frame's segment lists (events, offsets, counts)
   std::uint64_t metadata_blocks = 0;    // blocks whose metadata exists
   std::uint64_t metadata_computed = 0;  // blocks whose metadata was computed this frame (in or out of core)
+  std::uint64_t metadata_bytes = 0;     // memory of the block metadata held (out of core; bounded, LRU)
   std::uint64_t tree_nodes = 0;
+  std::uint64_t tree_bytes = 0;         // occupancy-tree memory held (node pool, free list)
   double depth_complexity_avg = 0;      // segments (SparseLeap) / nodes (octree) per ray
   std::uint32_t depth_complexity_max = 0;
   std::uint32_t depth_complexity_min = 0;

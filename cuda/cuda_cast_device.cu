@@ -7,6 +7,7 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cstring>
 #include <vector>
@@ -68,6 +69,7 @@ class CudaCastDevice final : public CastDevice {
     miss_table_.reserve(table_size_);
     miss_list_.reserve(c.miss_capacity);
     miss_counters_.reserve(2);
+    shortfall_.reserve(SampleShortfall::kWords);
     in_flight_.assign(c.slot_count, false);
     held_.clear();
     usage_host_.resize(c.slot_count);
@@ -119,6 +121,7 @@ class CudaCastDevice final : public CastDevice {
     Timer timer;
     check(cudaMemsetAsync(miss_table_.get(), 0, table_size_ * sizeof(std::uint64_t), compute_), "cudaMemset");
     check(cudaMemsetAsync(miss_counters_.get(), 0, 2 * sizeof(std::uint32_t), compute_), "cudaMemset");
+    check(cudaMemsetAsync(shortfall_.get(), 0, SampleShortfall::kWords * sizeof(std::uint64_t), compute_), "cudaMemset");
     CastParams p = r.params;
     SkipInputs skip = r.skip;
     inputs_.upload(p, skip, compute_);  // transfer-function table, enabled labels, segment lists
@@ -126,7 +129,7 @@ class CudaCastDevice final : public CastDevice {
     const FrameOutputs out = frame_.prepare(r.gen.width, r.gen.height, iso, compute_);
     dispatch_voxel(config_.voxel_type, [&](auto tag) { launch<decltype(tag)>(r, p, skip, out); });
     frame_.finish(frame, skip.method, iso, compute_);  // synchronises the compute stream
-    // Copied back once per frame: the miss list and the usage stamps.
+    // Copied back once per frame: the miss list, the usage stamps and the shortfall counters.
     std::uint32_t claimed = 0;  // ids claimed (may exceed the capacity: the rest were dropped)
     miss_counters_.download(&claimed, 1, compute_);
     check(cudaStreamSynchronize(compute_), "miss counters");
@@ -134,7 +137,9 @@ class CudaCastDevice final : public CastDevice {
     std::vector<std::uint64_t> ids(n);
     miss_list_.download(ids.data(), n, compute_);
     usage_.download(usage_host_.data(), config_.slot_count, compute_);
-    check(cudaStreamSynchronize(compute_), "miss and usage copy-back");
+    shortfall_.download(shortfall_host_.data(), SampleShortfall::kWords, compute_);
+    check(cudaStreamSynchronize(compute_), "miss, usage and shortfall copy-back");
+    add_shortfall(r.host.shortfall, shortfall_host_);
     fb.misses.resize(n);
     for (std::uint32_t i = 0; i < n; ++i) fb.misses[i].bits = ids[i];
     std::sort(fb.misses.begin(), fb.misses.end());
@@ -210,7 +215,7 @@ class CudaCastDevice final : public CastDevice {
     if (u.empty()) return;
     const std::uint64_t need = u.pool_words_needed();
     if (need > pool_words_) {
-      pool_.reserve(std::size_t(round_up(need, kPageEntries)), /*keep=*/true, compute_);
+      pool_.reserve(std::size_t(round_up(need, kChunkWords)), /*keep=*/true, compute_);
       pool_words_ = pool_.capacity();
     }
     scatter(directory_.get(), std::vector<std::uint64_t>(u.dir_index.begin(), u.dir_index.end()), u.dir_value);
@@ -244,6 +249,8 @@ class CudaCastDevice final : public CastDevice {
     m.capacity = config_.miss_capacity;
     s.v.frame = r.frame;
     s.v.has_labels = config_.has_labels;
+    s.v.shortfall = r.host.shortfall;  // the frame's level of detail; counted in device memory
+    s.v.shortfall.counters = r.host.shortfall.counters ? shortfall_.get() : nullptr;
     s.label_type = config_.label_type;
     if constexpr (!std::is_same_v<T, std::uint32_t>) {
       if (use_atlas_) {
@@ -269,7 +276,8 @@ class CudaCastDevice final : public CastDevice {
   DeviceBuffer<BrickLayout> layout_;
   DeviceBuffer<std::byte> voxels_, labels_;
   DeviceBuffer<std::uint32_t> usage_, directory_, pool_, miss_counters_, scatter_value_;
-  DeviceBuffer<std::uint64_t> miss_table_, miss_list_, scatter_index_;
+  DeviceBuffer<std::uint64_t> miss_table_, miss_list_, scatter_index_, shortfall_;
+  std::array<std::uint64_t, SampleShortfall::kWords> shortfall_host_{};
   FrameInputs inputs_;
   std::uint64_t pool_words_ = 0;
   std::uint32_t table_size_ = 0;

@@ -22,6 +22,7 @@ struct DenseAnyLabelSampler {
   DenseGrid<std::uint32_t> l32;
 
   SL_HOST_DEVICE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
+  SL_HOST_DEVICE float voxel(const ivec3& v, const SampleContext&) const { return volume.voxel_clamped(v); }  // exact iso
   SL_HOST_DEVICE std::uint32_t label_at(const vec3& p, const SampleContext&) const {
     if (l8.data) return l8.label_at(p);
     if (l16.data) return l16.label_at(p);
@@ -60,7 +61,8 @@ struct VirtualAnyLabelSampler {
 };
 
 // Out of core, hardware trilinear: the resident brick is read from a 3D texture atlas of slots.
-// The page-table walk, fallback to coarser levels, miss and usage reporting are VirtualSampler::locate.
+// The page-table walk, fallback to coarser levels, miss, usage and shortfall reporting are
+// VirtualSampler::serve.
 // The texture unit interpolates with 8-bit fixed-point weights, so images are close to, not
 // bit-identical with, the CPU's (the software sampler above is the default for that reason).
 template <class T>
@@ -71,7 +73,7 @@ struct TextureVirtualSampler {
   float scale = 1.0f; // normalized-float reads back to raw values (255, 65535; 1 for f32)
 
   SL_HOST_DEVICE float sample(const vec3& p, const SampleContext& c) const {
-    const auto& k = base.v.locate(p, c);  // the wanted brick or its finest resident ancestor
+    const auto& k = base.v.serve(p, c);  // the wanted brick or its finest resident ancestor, counted
     const PageEntry e = k.entry;
     if (e.is_resident()) {
 #if defined(__CUDA_ARCH__)

@@ -4,10 +4,23 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <string>
 
+#include "core/image.h"
+
 namespace sl::test {
+
+// Largest difference of any RGBA component between two images of the same size.
+inline float max_abs_diff(const Image& a, const Image& b) {
+  float m = 0.0f;
+  for (std::size_t i = 0; i < a.rgba.size(); ++i) {
+    const vec4 d = glm::abs(a.rgba[i] - b.rgba[i]);
+    m = std::max({m, d.x, d.y, d.z, d.w});
+  }
+  return m;
+}
 
 // True under CI (CI=true) or with SL_REQUIRE_ALL=1: then every suite must run in full, and a test
 // that cannot run here fails instead of skipping (STYLE.md #14).

@@ -33,6 +33,7 @@ void add_rows(std::vector<StatRow>& r, const Stats& s) {
   r.push_back({"boxes", human_count(double(s.boxes))});
   r.push_back({"events", human_count(double(s.events))});
   r.push_back({"tree nodes", human_count(double(s.tree_nodes))});
+  r.push_back({"tree KB", ms(double(s.tree_bytes) / 1024.0)});
   r.push_back({"depth cx", fmt("%.0f", double(s.depth_complexity_min)) + "/" + fmt("%.2f", s.depth_complexity_avg) +
                                "/" + fmt("%.0f", double(s.depth_complexity_max))});
   r.push_back({"occ. misses", human_count(double(s.occupancy_misses))});
@@ -42,13 +43,16 @@ void add_rows(std::vector<StatRow>& r, const Stats& s) {
     const CacheStats& c = s.cache;
     r.push_back({"cache", "", true});
     r.push_back({"resident MB", ms(c.resident_mb)});
-    r.push_back({"page table KB", ms(c.page_table_kb)});
+    r.push_back({"page table KB", ms(double(c.page_table_bytes) / 1024.0)});
     r.push_back({"hits", human_count(double(c.hits))});
     r.push_back({"misses", human_count(double(c.misses))});
     r.push_back({"loads", human_count(double(c.loads))});
     r.push_back({"pending", human_count(double(c.pending))});
     r.push_back({"evictions", human_count(double(c.evictions))});
     r.push_back({"failed", human_count(double(c.failed))});
+    r.push_back({"bricks retried", human_count(double(c.bricks_retried))});
+    r.push_back({"retries", human_count(double(c.retries))});
+    r.push_back({"recovered", human_count(double(c.recovered))});
     r.push_back({"converged at", c.converged_at_frame < 0 ? "-" : std::to_string(c.converged_at_frame)});
     r.push_back({"complete", fmt("%.3f", c.completeness) +
                                  (c.lod_coarsened > 0.0 ? fmt(" (%.0f%% coarser)", 100.0 * c.lod_coarsened) : "")});
@@ -66,7 +70,10 @@ std::vector<StatRow> stats_rows(const Stats& s) {
 
 std::uint64_t pending_loads(const Stats& s) { return s.cache.present ? s.cache.pending : 0; }
 
-bool still_refining(const Stats& s) { return s.cache.present && (s.cache.pending > 0 || s.cache.misses > 0); }
+// The renderer's own verdict (converged: nothing in flight and nothing left to resolve), not the miss
+// count: a settled view whose bricks do not fit keeps misses (and completeness < 1) that another frame
+// will not change, and repeating it would render the same image forever.
+bool still_refining(const Stats& s) { return s.cache.present && s.cache.converged_at_frame < 0; }
 
 std::string human_count(double n) {
   if (!std::isfinite(n)) return "-";

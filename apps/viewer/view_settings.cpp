@@ -50,7 +50,10 @@ bool same_lod(const RenderSettings& a, const RenderSettings& b) {
 
 bool same_settings(const RenderSettings& a, const RenderSettings& b) {
   return a.width == b.width && a.height == b.height && a.mode == b.mode && a.method == b.method &&
-         a.step == b.step && a.iso == b.iso && a.ert == b.ert && a.block == b.block && a.gap_eps == b.gap_eps &&
+         a.step == b.step && a.iso == b.iso && a.iso_method == b.iso_method && a.ert == b.ert && a.block == b.block &&
+         a.gap_eps == b.gap_eps && a.lighting.enabled == b.lighting.enabled &&
+         a.lighting.ambient == b.lighting.ambient && a.lighting.diffuse == b.lighting.diffuse &&
+         a.lighting.specular == b.lighting.specular && a.lighting.shininess == b.lighting.shininess &&
          a.depth_complexity_view == b.depth_complexity_view && a.boxes_overlay == b.boxes_overlay &&
          same_lod(a, b);
 }

@@ -230,9 +230,9 @@ std::unique_ptr<SlabReader> open_slab_reader(const std::string& path) {
   if (!fs::exists(path, ec)) throw InputError(path, "no such file or directory");
   if (ends_with(p, ".nrrd") || ends_with(p, ".nhdr")) return open_nrrd_slabs(path);
   if (ends_with(p, ".tif") || ends_with(p, ".tiff")) return open_tiff_stack(path);
-  if (ends_with(p, ".nii") || ends_with(p, ".nii.gz")) return open_nifti(path);
+  if (is_nifti_path(p)) return open_nifti(path);
   throw InputError(path, "unknown input format (expected .nrrd/.nhdr, .tif/.tiff or a directory of them, "
-                         ".nii/.nii.gz)");
+                         ".nii/.nii.gz or .hdr/.img)");
 }
 
 int ingest_levels(ivec3 dims, int chunk) {

@@ -3,6 +3,7 @@
 #include <filesystem>
 
 #include "cache/formats/ingest.h"
+#include "cache/formats/nifti.h"
 #include "cache/formats/nrrd.h"
 #include "core/error.h"
 
@@ -20,7 +21,7 @@ bool is_slab_volume_path(const std::string& path) {
   std::string p = path;
   for (char& c : p) c = char(std::tolower(static_cast<unsigned char>(c)));
   std::error_code ec;
-  return ends_with(p, ".nii") || ends_with(p, ".nii.gz") || ends_with(p, ".tif") || ends_with(p, ".tiff") ||
+  return is_nifti_path(p) || ends_with(p, ".tif") || ends_with(p, ".tiff") ||
          std::filesystem::is_directory(path, ec);
 }
 

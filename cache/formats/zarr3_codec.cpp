@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "cache/formats/zarr_array.h"
+#include "core/error.h"
 
 namespace sl::zarr::v3 {
 namespace {
@@ -307,6 +308,8 @@ std::optional<std::vector<std::byte>> read_chunk(const ArrayCodecs& a, const Byt
       std::optional<std::vector<std::byte>> raw = bytes.read(array_dir + key);
       if (!raw) return std::nullopt;
       return to_voxels(a.stored, decode_chain(a.chain, std::move(*raw), a.grid, elem));
+    } catch (const TransientError& e) {
+      throw TransientError("", "chunk '" + key + "': " + e.what());  // still retriable (core/error.h)
     } catch (const std::runtime_error& e) {
       fail("chunk '" + key + "': " + e.what());
     }
@@ -354,6 +357,8 @@ std::optional<std::vector<std::byte>> read_chunk(const ArrayCodecs& a, const Byt
     std::optional<std::vector<std::byte>> raw = bytes.read_range(array_dir + key, off, n);
     if (!raw) return std::nullopt;  // the shard vanished after its index was read
     return to_voxels(a.stored, decode_chain(sh.inner_chain, std::move(*raw), sh.inner, elem));
+  } catch (const TransientError& e) {
+    throw TransientError("", where() + e.what());
   } catch (const std::runtime_error& e) {
     fail(where() + e.what());
   }

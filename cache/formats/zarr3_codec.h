@@ -16,7 +16,7 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "cache/formats/zarr_codec.h"
-#include "cache/formats/zarr3_store.h"
+#include "cache/formats/byte_store.h"
 
 namespace sl::zarr {
 class ChunkCache;

@@ -3,8 +3,6 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
-#include <cerrno>
-#include <cstdio>
 #include <cstring>
 #include <limits>
 
@@ -14,8 +12,6 @@
 
 namespace sl::zarr {
 namespace {
-
-namespace fs = std::filesystem;
 
 void swap_bytes(std::byte* p, std::size_t count, int size) {
   for (std::size_t i = 0; i < count; ++i, p += size) std::reverse(p, p + size);
@@ -42,10 +38,6 @@ ChunkCache::Chunk make_fill_chunk(const ArrayMeta& m) {
   return b;
 }
 
-struct FileCloser {
-  void operator()(std::FILE* f) const { std::fclose(f); }
-};
-
 }  // namespace
 
 ChunkCache::Chunk ChunkCache::get(const std::string& key) {
@@ -60,12 +52,23 @@ void ChunkCache::put(const std::string& key, Chunk chunk) {
   const std::size_t size = chunk->size();
   if (size > max_bytes_) return;
   std::lock_guard lock(mutex_);
+  insert_locked(key, std::move(chunk), size);
+}
+
+void ChunkCache::put_missing(const std::string& key, Chunk fill) {
+  const std::size_t charge = key.size() + 64;  // the entry, not the shared chunk
+  if (charge > max_bytes_) return;
+  std::lock_guard lock(mutex_);
+  insert_locked(key, std::move(fill), charge);
+}
+
+void ChunkCache::insert_locked(const std::string& key, Chunk chunk, std::size_t charge) {
   if (index_.count(key)) return;  // another thread decoded it too
-  lru_.push_front({key, std::move(chunk)});
+  lru_.push_front({key, std::move(chunk), charge});
   index_[key] = lru_.begin();
-  bytes_ += size;
+  bytes_ += charge;
   while (bytes_ > max_bytes_) {
-    bytes_ -= lru_.back().chunk->size();
+    bytes_ -= lru_.back().charge;
     index_.erase(lru_.back().key);
     lru_.pop_back();
   }
@@ -78,35 +81,42 @@ std::size_t ChunkCache::bytes() const {
 
 ArrayReader::ArrayReader(Multiscale m, std::string store, std::shared_ptr<ChunkCache> cache)
     : m_(std::move(m)), store_(std::move(store)), cache_(std::move(cache)),
-      bytes_(std::make_shared<v3::LocalByteStore>(m_.dir.string())),
       index_cache_(std::make_shared<ChunkCache>(kShardIndexCacheBytes)) {
-  SL_CHECK(cache_ != nullptr);
+  SL_CHECK(cache_ != nullptr && m_.bytes != nullptr);
   for (const Level& l : m_.levels) fill_.push_back(make_fill_chunk(l.meta));
+}
+
+std::string ArrayReader::array_dir(int level) const {
+  const std::string d = join_key(m_.prefix, m_.levels[std::size_t(level)].path);
+  return d.empty() ? d : d + "/";
 }
 
 ChunkCache::Chunk ArrayReader::chunk(int level, ivec3 c) const {
   const Level& lv = m_.levels[std::size_t(level)];
   if (lv.meta.v3) return chunk_v3(level, c);
   const std::string rel = lv.meta.chunk_key(c);
-  const std::string key = m_.dir.string() + "/" + lv.path + "/" + rel;
+  const std::string object = array_dir(level) + rel;
+  const std::string key = store_ + "/" + object;
   if (ChunkCache::Chunk hit = cache_->get(key)) return hit;
 
-  const fs::path file = m_.dir / lv.path / rel;
   const auto where = [&] { return level_name(m_, level) + " chunk '" + rel + "': "; };
-  std::unique_ptr<std::FILE, FileCloser> f(std::fopen(file.c_str(), "rb"));
-  if (!f) {
-    // Zarr v2: a chunk that was never written holds the fill value everywhere.
-    if (errno == ENOENT) return fill_[std::size_t(level)];
-    throw InputError(store_, where() + "cannot read: " + std::strerror(errno));
+  std::optional<std::vector<std::byte>> raw;
+  try {
+    raw = m_.bytes->read(object);
+  } catch (const TransientError& e) {
+    throw TransientError(store_, where() + e.what());  // the brick loader retries it (core/error.h)
+  } catch (const std::runtime_error& e) {
+    throw InputError(store_, where() + e.what());
   }
-  std::vector<std::byte> raw;
-  std::byte buf[1 << 16];
-  for (std::size_t n; (n = std::fread(buf, 1, sizeof buf, f.get())) > 0;) raw.insert(raw.end(), buf, buf + n);
-  if (std::ferror(f.get())) throw InputError(store_, where() + "read error: " + std::strerror(errno));
+  // Zarr v2: a chunk that was never written holds the fill value everywhere.
+  if (!raw) {
+    cache_->put_missing(key, fill_[std::size_t(level)]);
+    return fill_[std::size_t(level)];
+  }
 
   auto out = std::make_shared<std::vector<std::byte>>(lv.meta.chunk_bytes());
   try {
-    decode(lv.meta.compressor, raw, *out);
+    decode(lv.meta.compressor, *raw, *out);
   } catch (const std::runtime_error& e) {
     throw InputError(store_, where() + e.what());
   }
@@ -125,16 +135,22 @@ ChunkCache::Chunk ArrayReader::chunk_v3(int level, ivec3 c) const {
   g[g.size() - 3] = c.z;
   g[g.size() - 2] = c.y;
   g[g.size() - 1] = c.x;
-  const std::string prefix = m_.dir.string() + "/" + lv.path;
+  const std::string dir = array_dir(level);
+  const std::string prefix = store_ + "/" + dir;
   const std::string key = prefix + "#" + std::to_string(c.z) + "," + std::to_string(c.y) + "," + std::to_string(c.x);
   if (ChunkCache::Chunk hit = cache_->get(key)) return hit;
   std::optional<std::vector<std::byte>> data;
   try {
-    data = v3::read_chunk(*lv.meta.v3, *bytes_, lv.path + "/", g, *index_cache_, prefix);
+    data = v3::read_chunk(*lv.meta.v3, *m_.bytes, dir, g, *index_cache_, prefix);
+  } catch (const TransientError& e) {
+    throw TransientError(store_, level_name(m_, level) + " " + e.what());
   } catch (const std::runtime_error& e) {
     throw InputError(store_, level_name(m_, level) + " " + e.what());
   }
-  if (!data) return fill_[std::size_t(level)];
+  if (!data) {
+    cache_->put_missing(key, fill_[std::size_t(level)]);
+    return fill_[std::size_t(level)];
+  }
   ChunkCache::Chunk result = std::make_shared<const std::vector<std::byte>>(std::move(*data));
   cache_->put(key, result);
   return result;

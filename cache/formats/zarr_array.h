@@ -11,7 +11,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "cache/formats/zarr3_store.h"
+#include "cache/formats/byte_store.h"
 #include "cache/formats/zarr_meta.h"
 
 namespace sl::zarr {
@@ -27,6 +27,9 @@ class ChunkCache {
 
   Chunk get(const std::string& key);
   void put(const std::string& key, Chunk chunk);
+  // A chunk that is not stored (the shared fill-value chunk), remembered so that a remote store is
+  // not asked again for an object it does not have; charged as a small entry, not as its data.
+  void put_missing(const std::string& key, Chunk fill);
   std::size_t bytes() const;
   std::size_t max_bytes() const { return max_bytes_; }
 
@@ -34,7 +37,9 @@ class ChunkCache {
   struct Entry {
     std::string key;
     Chunk chunk;
+    std::size_t charge;  // bytes counted against the bound
   };
+  void insert_locked(const std::string& key, Chunk chunk, std::size_t charge);
   const std::size_t max_bytes_;
   mutable std::mutex mutex_;
   std::list<Entry> lru_;  // front: most recently used
@@ -62,20 +67,22 @@ class ArrayReader {
   // Fills `dst` (n voxels, x fastest, native byte order) with level voxels [first, first + n),
   // each coordinate clamped to the stored shape (so a floor-halved level reads like a ceil-halved
   // one with its last voxel repeated). Missing chunk files read as the fill value. Thread-safe.
-  // Throws InputError(store, "level L (array 'P') chunk K: reason") for unreadable or bad chunks.
+  // Throws InputError(store, "level L (array 'P') chunk K: reason") for unreadable or bad chunks, a
+  // TransientError (same text) when the store's failure may not recur (HTTP 5xx, timeout).
   void read_box(int level, ivec3 first, ivec3 n, std::byte* dst) const;
 
   // The decoded chunk (cx, cy, cz) of a level: chunk_bytes() bytes, native order.
   ChunkCache::Chunk chunk(int level, ivec3 c) const;
 
  private:
-  // Zarr v3: chunk c of the read grid (an inner chunk when sharded) through bytes_ (zarr3_codec.h).
+  // Zarr v3: chunk c of the read grid (an inner chunk when sharded) (zarr3_codec.h).
   ChunkCache::Chunk chunk_v3(int level, ivec3 c) const;
+  // Key prefix of a level's array in the store: "" or ending in '/'.
+  std::string array_dir(int level) const;
 
   Multiscale m_;
   std::string store_;
   std::shared_ptr<ChunkCache> cache_;
-  std::shared_ptr<const v3::ByteStore> bytes_;  // v3 levels read through it (a local directory today)
   std::shared_ptr<ChunkCache> index_cache_;     // v3 shard indices
   std::vector<ChunkCache::Chunk> fill_;  // per level: a chunk of the fill value
 };

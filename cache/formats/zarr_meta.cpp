@@ -1,12 +1,15 @@
 #include "cache/formats/zarr_meta.h"
 
 #include <cmath>
-#include <fstream>
+#include <filesystem>
+#include <optional>
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "cache/formats/store_url.h"
 #include "cache/formats/zarr3_codec.h"
 #include "cache/formats/zarr3_meta.h"
+#include "core/config.h"
 #include "core/error.h"
 #include "core/json_util.h"
 
@@ -19,24 +22,35 @@ using json = nlohmann::json;
 // Largest decoded chunk accepted: bigger chunks would make every brick read slow and the cache useless.
 constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
 
-json read_json(const fs::path& file, const std::string& store, const std::string& where) {
-  std::error_code ec;
-  if (const std::uintmax_t size = fs::file_size(file, ec); !ec) {
-    if (const std::string why = json_too_large(size); !why.empty()) {
-      throw InputError(store, where + "'" + file.filename().string() + "' " + why);
+// The object's last key segment, for messages ("'.zarray'").
+std::string file_name(const std::string& key) { return key.substr(key.rfind('/') + 1); }
+
+// The JSON object `key` of the store, or nullopt when it does not exist.
+std::optional<json> read_json(const ByteStore& bytes, const std::string& key, const std::string& store,
+                              const std::string& where) {
+  const std::string file = file_name(key);
+  if (const std::optional<std::uint64_t> size = bytes.size_if_known(key)) {
+    if (const std::string why = json_too_large(*size); !why.empty()) {
+      throw InputError(store, where + "'" + file + "' " + why);
     }
   }
-  std::ifstream f(file, std::ios::binary);
-  if (!f) throw InputError(store, where + "cannot read '" + file.filename().string() + "'");
-  std::string text;
-  if (!read_json_bytes(f, text)) {
-    throw InputError(store, where + "'" + file.filename().string() + "' holds more than " +
-                                std::to_string(kMaxJsonBytes >> 20) + " MiB of JSON");
+  std::optional<std::vector<std::byte>> raw;
+  try {
+    raw = bytes.read(key);
+  } catch (const TransientError& e) {
+    throw TransientError(store, where + "cannot read '" + file + "' (" + e.what() + ")");
+  } catch (const std::runtime_error& e) {
+    throw InputError(store, where + "cannot read '" + file + "' (" + e.what() + ")");
+  }
+  if (!raw) return std::nullopt;
+  if (raw->size() > kMaxJsonBytes) {
+    throw InputError(store, where + "'" + file + "' holds more than " + std::to_string(kMaxJsonBytes >> 20) +
+                                " MiB of JSON");
   }
   try {
-    return json::parse(text);
+    return json::parse(reinterpret_cast<const char*>(raw->data()), reinterpret_cast<const char*>(raw->data()) + raw->size());
   } catch (const json::exception& e) {
-    throw InputError(store, where + "malformed JSON in '" + file.filename().string() + "' (" + e.what() + ")");
+    throw InputError(store, where + "malformed JSON in '" + file + "' (" + e.what() + ")");
   }
 }
 
@@ -193,17 +207,18 @@ void check_dimension_names(const ArrayMeta& m, const json* ms) {
   }
 }
 
-Level read_level(const fs::path& group, const std::string& path, const std::string& store, const std::string& what,
-                 const std::string& level_label, bool v3, const json* ms) {
+// `missing`: the message when the array's metadata object is absent (default "missing NAME").
+Level read_level(const ByteStore& bytes, const std::string& group, const std::string& path, const std::string& store,
+                 const std::string& what, const std::string& level_label, bool v3, const json* ms,
+                 const std::string& missing = {}) {
   Level lv;
   lv.path = path;
   const std::string where = level_label + " (" + array_label(what, path) + "): ";
   const char* name = v3 ? "zarr.json" : ".zarray";
-  const fs::path file = group / path / name;
-  if (!fs::exists(file)) throw InputError(store, where + "missing " + name);
-  const json j = read_json(file, store, where);
+  const std::optional<json> j = read_json(bytes, join_key(group, join_key(path, name)), store, where);
+  if (!j) throw InputError(store, missing.empty() ? where + "missing " + name : missing);
   try {
-    lv.meta = v3 ? v3::parse_array(j) : parse_array(j);
+    lv.meta = v3 ? v3::parse_array(*j) : parse_array(*j);
     check_dimension_names(lv.meta, ms);
   } catch (const std::runtime_error& e) {
     throw InputError(store, where + e.what());
@@ -264,19 +279,28 @@ std::string level_name(const Multiscale& m, int level) {
   return "level " + std::to_string(level) + " (array '" + (m.what.empty() ? p : m.what + "/" + p) + "')";
 }
 
-Multiscale open_multiscale(const fs::path& dir, const std::string& store, const std::string& what) {
+std::string join_key(const std::string& prefix, const std::string& key) {
+  if (prefix.empty() || prefix == ".") return key == "." ? std::string() : key;
+  if (key.empty() || key == ".") return prefix;
+  return prefix.back() == '/' ? prefix + key : prefix + "/" + key;
+}
+
+Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& store,
+                           const std::string& what) {
+  SL_CHECK(bytes != nullptr);
   Multiscale m;
-  m.dir = dir;
+  m.bytes = bytes;
+  m.prefix = prefix;
   m.what = what;
   const std::string gwhere = what.empty() ? "" : "group '" + what + "': ";
-  if (!fs::is_directory(dir)) throw InputError(store, gwhere + "not a directory");
   std::vector<std::vector<double>> scales;
   // Zarr v3: a zarr.json group whose NGFF 0.5 metadata sits in attributes.ome, or a bare array.
-  const bool v3 = fs::exists(dir / "zarr.json");
+  const std::optional<json> v3_node = read_json(*bytes, join_key(prefix, "zarr.json"), store, gwhere);
+  const bool v3 = v3_node.has_value();
   bool bare_v3_array = false;
   json attrs;
   if (v3) {
-    const json node = read_json(dir / "zarr.json", store, gwhere);
+    const json& node = *v3_node;
     if (!node.is_object() || !node.contains("zarr_format") || node["zarr_format"] != 3) {
       throw InputError(store, gwhere + "zarr.json: zarr_format must be 3");
     }
@@ -288,8 +312,8 @@ Multiscale open_multiscale(const fs::path& dir, const std::string& store, const 
     } else if (node.contains("attributes") && node["attributes"].is_object() && node["attributes"].contains("ome")) {
       attrs = node["attributes"]["ome"];
     }
-  } else if (fs::exists(dir / ".zattrs")) {
-    attrs = read_json(dir / ".zattrs", store, gwhere);
+  } else if (std::optional<json> z = read_json(*bytes, join_key(prefix, ".zattrs"), store, gwhere)) {
+    attrs = std::move(*z);
   }
   if (attrs.is_object() && attrs.contains("multiscales")) {
     try {
@@ -311,7 +335,7 @@ Multiscale open_multiscale(const fs::path& dir, const std::string& store, const 
       for (std::size_t l = 0; l < m.levels.size(); ++l) {
         Level& lv = m.levels[l];
         const std::string label = "level " + std::to_string(l);
-        lv = read_level(dir, lv.path, store, what, label, v3, &ms);
+        lv = read_level(*bytes, prefix, lv.path, store, what, label, v3, &ms);
         if (l == 0) check_axes(ms, lv.meta.shape.size());
         std::vector<double> s = scale_of(ms["datasets"][l], lv.meta.shape.size());
         const std::vector<double> global = scale_of(ms, lv.meta.shape.size());
@@ -330,14 +354,12 @@ Multiscale open_multiscale(const fs::path& dir, const std::string& store, const 
     if (!bare_v3_array) {
       throw InputError(store, gwhere + "zarr.json is a group without attributes.ome.multiscales: not an image store");
     }
-    m.levels.push_back(read_level(dir, ".", store, what, "level 0", true, nullptr));
+    m.levels.push_back(read_level(*bytes, prefix, ".", store, what, "level 0", true, nullptr));
     scales.emplace_back();
   }
   if (m.levels.empty()) {
-    if (!fs::exists(dir / ".zarray")) {
-      throw InputError(store, gwhere + "no OME-Zarr multiscales in .zattrs and no .zarray: not an image store");
-    }
-    m.levels.push_back(read_level(dir, ".", store, what, "level 0", false, nullptr));
+    m.levels.push_back(read_level(*bytes, prefix, ".", store, what, "level 0", false, nullptr,
+                                  gwhere + "no OME-Zarr multiscales in .zattrs and no .zarray: not an image store"));
     scales.emplace_back();
   }
   // Each level must be a 2x reduction of the one before (DESIGN.md §3), of the same dtype.
@@ -370,8 +392,8 @@ Multiscale open_multiscale(const fs::path& dir, const std::string& store, const 
   m.desc.spacing = m.levels[0].scale;
   m.desc.type = m.levels[0].meta.type;
   // Out-of-core volumes may exceed memory, not 64-bit byte counts (each dim is < 2^31 already).
-  const double bytes = double(m.desc.dims.x) * double(m.desc.dims.y) * double(m.desc.dims.z) * voxel_size(m.desc.type);
-  if (bytes >= 0x1p63) {
+  const double total = double(m.desc.dims.x) * double(m.desc.dims.y) * double(m.desc.dims.z) * voxel_size(m.desc.type);
+  if (total >= 0x1p63) {
     throw InputError(store, level_name(m, 0) + ": shape " + std::to_string(m.desc.dims.x) + "x" +
                                 std::to_string(m.desc.dims.y) + "x" + std::to_string(m.desc.dims.z) +
                                 " overflows a 64-bit byte count");
@@ -380,26 +402,19 @@ Multiscale open_multiscale(const fs::path& dir, const std::string& store, const 
   return m;
 }
 
-StoreInfo open_store(const std::string& path) {
+StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
   StoreInfo s;
   s.path = path;
-  std::string p = path;
-  while (p.size() > 1 && p.back() == '/') p.pop_back();
-  const fs::path dir(p);
-  if (!fs::exists(dir)) throw InputError(path, "no such store (directory)");
-  if (!fs::is_directory(dir)) throw InputError(path, "a Zarr store must be a directory");
-  s.image = open_multiscale(dir, path, "");
-  const fs::path ldir = dir / "labels";
+  s.image = open_multiscale(bytes, "", path, "");
   json j;
-  if (fs::exists(ldir / "zarr.json")) {
+  if (const std::optional<json> node = read_json(*bytes, "labels/zarr.json", path, "group 'labels': ")) {
     // NGFF 0.5: the label names sit in the labels group's attributes.ome.
-    const json node = read_json(ldir / "zarr.json", path, "group 'labels': ");
-    if (node.is_object() && node.contains("attributes") && node["attributes"].is_object() &&
-        node["attributes"].contains("ome")) {
-      j = node["attributes"]["ome"];
+    if (node->is_object() && node->contains("attributes") && (*node)["attributes"].is_object() &&
+        (*node)["attributes"].contains("ome")) {
+      j = (*node)["attributes"]["ome"];
     }
-  } else if (fs::exists(ldir / ".zattrs")) {
-    j = read_json(ldir / ".zattrs", path, "group 'labels': ");
+  } else if (std::optional<json> z = read_json(*bytes, "labels/.zattrs", path, "group 'labels': ")) {
+    j = std::move(*z);
   }
   if (j.is_object() && j.contains("labels")) {
     if (!j["labels"].is_array()) throw InputError(path, "group 'labels': \"labels\" must be a list of names");
@@ -409,7 +424,7 @@ StoreInfo open_store(const std::string& path) {
     }
   }
   if (!s.label_names.empty()) {
-    s.labels = open_multiscale(ldir / s.label_names[0], path, "labels/" + s.label_names[0]);
+    s.labels = open_multiscale(bytes, "labels/" + s.label_names[0], path, "labels/" + s.label_names[0]);
     if (s.labels->desc.dims != s.image.desc.dims) {
       throw InputError(path, "label image 'labels/" + s.label_names[0] + "' dims differ from the image's");
     }
@@ -420,7 +435,18 @@ StoreInfo open_store(const std::string& path) {
   return s;
 }
 
+StoreInfo open_store(const std::string& path) {
+  if (is_url(path)) return open_store(open_byte_store(path), path);
+  std::string p = path;
+  while (p.size() > 1 && p.back() == '/') p.pop_back();
+  const fs::path dir(p);
+  if (!fs::exists(dir)) throw InputError(path, "no such store (directory)");
+  if (!fs::is_directory(dir)) throw InputError(path, "a Zarr store must be a directory");
+  return open_store(std::make_shared<LocalByteStore>(p), path);
+}
+
 bool is_zarr_path(const std::string& path) {
+  if (is_url(path)) return url_is_zarr(path);
   std::string p = path;
   while (p.size() > 1 && p.back() == '/') p.pop_back();
   if (p.size() >= 5 && p.compare(p.size() - 5, 5, ".zarr") == 0) return true;

@@ -1,4 +1,5 @@
-// OME-Zarr (NGFF 0.4) on Zarr v2 and (NGFF 0.5) on Zarr v3: the metadata of a store. A store is a directory; its root group's
+// OME-Zarr (NGFF 0.4) on Zarr v2 and (NGFF 0.5) on Zarr v3: the metadata of a store. A store is a key space
+// read through a ByteStore (a local directory or an HTTP(S) URL, store_url.h); its root group's
 // .zattrs "multiscales" names one array per level (datasets[].path) with per-level scale transforms,
 // and an optional "labels" group holds label images with their own multiscales (NGFF's image-label).
 // A bare Zarr v2 array (a directory with .zarray) is read as a one-level store. Zarr v3 (zarr.json,
@@ -11,7 +12,6 @@
 #pragma once
 
 #include <cstdint>
-#include <filesystem>
 #include <memory>
 #include <optional>
 #include <string>
@@ -19,6 +19,7 @@
 
 #include <nlohmann/json_fwd.hpp>
 
+#include "cache/formats/byte_store.h"
 #include "cache/formats/zarr_codec.h"
 #include "core/math.h"
 #include "core/volume.h"
@@ -65,7 +66,8 @@ struct Level {
 };
 
 struct Multiscale {
-  std::filesystem::path dir;  // the group holding the level arrays
+  std::shared_ptr<const ByteStore> bytes;  // the store's root
+  std::string prefix;         // key prefix of the group holding the level arrays: "" or "labels/NAME/"
   std::string what;           // "" for the image, "labels/NAME" for a label image (for messages)
   std::vector<Level> levels;
   VolumeDesc desc;            // level 0: dims, spacing (level-0 scale), type
@@ -78,15 +80,25 @@ struct StoreInfo {
   std::vector<std::string> label_names; // every entry
 };
 
-// Reads and checks all metadata of the store at `path` (no chunk data). Every problem throws
-// InputError(path, reason) naming the level and array at fault.
+// Reads and checks all metadata of the store whose root is `bytes` (no chunk data). Every problem
+// throws InputError(name, reason) naming the level and array at fault; a TransientError of the store
+// (an HTTP 5xx, a timeout) stays one.
+StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& name);
+// The store at `path`: a local directory, or a URL (http://, https://, zarr://, zarr2://, zarr3://;
+// store_url.h). Errors name `path` as given.
 StoreInfo open_store(const std::string& path);
-// A multiscale group (or bare array) at `dir` inside store `path`.
-Multiscale open_multiscale(const std::filesystem::path& dir, const std::string& path, const std::string& what);
+// A multiscale group (or bare array) at key prefix `prefix` ("" or ending in '/') of store `name`.
+Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& name,
+                           const std::string& what);
 
-// True when `path` names a Zarr store: it ends in .zarr (optionally with a trailing slash) or is a
-// directory holding .zattrs/.zgroup/.zarray or (v3) zarr.json.
+// True when `path` names a Zarr store: it ends in .zarr (optionally with a trailing slash), is a
+// directory holding .zattrs/.zgroup/.zarray or (v3) zarr.json, or is a URL recognised as Zarr
+// (store_url.h: a zarr scheme, a .zarr name, or one of those objects at the URL).
 bool is_zarr_path(const std::string& path);
+
+// `prefix` + `key`, where a key of "." (a bare array is its own level) adds nothing, so that local
+// paths and URLs never hold a "./" segment.
+std::string join_key(const std::string& prefix, const std::string& key);
 
 // "level 2 (array 'labels/cells/2')" for messages.
 std::string level_name(const Multiscale& m, int level);

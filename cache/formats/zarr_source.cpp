@@ -1,89 +1,23 @@
 #include "cache/formats/zarr_source.h"
 
 #include <cstring>
-#include <filesystem>
-#include <fstream>
+#include <optional>
 #include <nlohmann/json.hpp>
 
+#include "cache/formats/chunked_levels.h"
 #include "cache/pyramid.h"
 #include "core/error.h"
-#include "core/parallel.h"
 
 namespace sl {
 namespace {
 
-// A whole level of a reader, read chunk row by chunk row in parallel. With `skip_unreadable`, chunk
-// by chunk instead, and a chunk that cannot be read is left 0 (see max_label()).
+// A whole level of a reader (chunked_levels.h).
 Volume read_level(const zarr::ArrayReader& r, int level, const std::string& origin, bool skip_unreadable = false) {
   const zarr::Level& lv = r.multiscale().levels[std::size_t(level)];
-  VolumeDesc d;
-  d.dims = lv.dims;
-  d.type = lv.meta.type;
-  d.spacing = r.multiscale().desc.spacing * float(1 << level);
-  Volume v(d, origin);
-  const ivec3 c = lv.meta.chunk_dims();
-  const int rows = (d.dims.z + c.z - 1) / c.z;
-  const std::size_t elem = std::size_t(voxel_size(d.type));
-  const std::size_t plane = std::size_t(d.dims.x) * std::size_t(d.dims.y) * elem;
-  parallel_for(0, rows, [&](int i) {
-    const int z0 = i * c.z, nz = std::min(c.z, d.dims.z - z0);
-    if (!skip_unreadable) {
-      r.read_box(level, ivec3(0, 0, z0), ivec3(d.dims.x, d.dims.y, nz), v.data() + std::size_t(z0) * plane);
-      return;
-    }
-    std::vector<std::byte> box(std::size_t(c.x) * std::size_t(c.y) * std::size_t(c.z) * elem);
-    for (int y0 = 0; y0 < d.dims.y; y0 += c.y) {
-      for (int x0 = 0; x0 < d.dims.x; x0 += c.x) {
-        const ivec3 n(std::min(c.x, d.dims.x - x0), std::min(c.y, d.dims.y - y0), nz);
-        try {
-          r.read_box(level, ivec3(x0, y0, z0), n, box.data());
-        } catch (const InputError&) {
-          continue;
-        }
-        for (int z = 0; z < n.z; ++z) {
-          for (int y = 0; y < n.y; ++y) {
-            std::memcpy(v.data() + v.view().index(x0, y0 + y, z0 + z) * elem,
-                        box.data() + (std::size_t(z) * std::size_t(n.y) + std::size_t(y)) * std::size_t(n.x) * elem,
-                        std::size_t(n.x) * elem);
-          }
-        }
-      }
-    }
-  });
-  return v;
-}
-
-// Copies level voxels [first, first + n), each coordinate clamped to the dims of `v`, into dst.
-void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst) {
-  const std::size_t elem = std::size_t(voxel_size(v.type()));
-  const ivec3 d = v.dims();
-  for (int z = 0; z < n.z; ++z) {
-    for (int y = 0; y < n.y; ++y) {
-      for (int x = 0; x < n.x; ++x) {
-        const ivec3 s = glm::min(first + ivec3(x, y, z), d - 1);
-        std::memcpy(dst, v.data() + v.view().index(s.x, s.y, s.z) * elem, elem);
-        dst += elem;
-      }
-    }
-  }
-}
-
-// Derived levels: 2x reductions of `base` until 1³.
-std::vector<Volume> derive(const Volume& base, bool labels) {
-  std::vector<Volume> out;
-  const Volume* src = &base;
-  while (src->dims().x > 1 || src->dims().y > 1 || src->dims().z > 1) {
-    VolumeDesc d = src->desc();
-    d.dims = (d.dims + 1) / 2;
-    d.spacing *= 2.0f;
-    Volume dst(d, "pyramid");
-    parallel_for(0, d.dims.z, [&](int lo, int hi) {
-      (labels ? reduce_mode : reduce_mean)(src->type(), src->data(), src->dims(), dst.data(), lo, hi);
-    });
-    out.push_back(std::move(dst));
-    src = &out.back();
-  }
-  return out;
+  const VolumeDesc d{lv.dims, r.multiscale().desc.spacing * float(1 << level), lv.meta.type};
+  return read_chunked_level(
+      d, lv.meta.chunk_dims(), [&](ivec3 first, ivec3 n, std::byte* dst) { r.read_box(level, first, n, dst); }, origin,
+      skip_unreadable);
 }
 
 std::string mib(std::uint64_t b) { return std::to_string((b + (1 << 19)) >> 20) + " MiB"; }
@@ -109,11 +43,18 @@ ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& l
   }
   if (labels_) {
     // Zarr v2 keeps a group's attributes in .zattrs, v3 in zarr.json's "attributes".
-    const bool v3 = std::filesystem::exists(labels_->multiscale().dir / "zarr.json");
-    std::ifstream f(labels_->multiscale().dir / (v3 ? "zarr.json" : ".zattrs"));
-    if (f) {
+    const zarr::Multiscale& lm = labels_->multiscale();
+    const bool v3 = lm.levels[0].meta.v3 != nullptr;
+    std::optional<std::vector<std::byte>> raw;
+    try {
+      raw = lm.bytes->read(zarr::join_key(lm.prefix, v3 ? "zarr.json" : ".zattrs"));
+    } catch (const std::runtime_error&) {
+      // Read by open_multiscale already; a failure now only loses the shortcut.
+    }
+    if (raw) {
       try {
-        const nlohmann::json node = nlohmann::json::parse(f);
+        const char* text = reinterpret_cast<const char*>(raw->data());
+        const nlohmann::json node = nlohmann::json::parse(text, text + raw->size());
         const nlohmann::json& j = v3 && node.contains("attributes") ? node["attributes"] : node;
         if (j.contains("sparseleap") && j["sparseleap"].contains("max_label")) {
           max_label_attr_ = j["sparseleap"]["max_label"].get<std::uint32_t>();
@@ -136,8 +77,8 @@ ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& l
     }
     return read_level(r, c, store);
   };
-  derived_ = derive(base(*image_, path), false);
-  if (labels_) derived_labels_ = derive(base(*labels_, labels_store), true);
+  derived_ = derive_levels(base(*image_, path), false);
+  if (labels_) derived_labels_ = derive_levels(base(*labels_, labels_store), true);
 }
 
 void ZarrVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,

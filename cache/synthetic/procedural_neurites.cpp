@@ -409,6 +409,42 @@ void ProceduralNeuritesSource::read_brick(const BrickLayout& layout, BrickId id,
   }
 }
 
+bool ProceduralNeuritesSource::bound_blocks(const BrickLayout& layout, int level, int block,
+                                            std::span<const ivec3> blocks, std::span<BlockMetadata> out) const {
+  SL_CHECK(level >= 1 && level < layout.levels && blocks.size() == out.size());
+  if (blocks.empty()) return true;
+  if (method(level) != Method::Exact) {
+    for (BlockMetadata& m : out) {
+      m = BlockMetadata{};
+      m.computed = true;
+      m.min = 0.0f;
+      m.max = 255.0f;
+    }
+    return true;
+  }
+  // Each block's dilated box at the level, as level-0 voxels; all of them synthesised at once.
+  const int s = 1 << level;
+  std::vector<ivec3> lo(blocks.size()), hi(blocks.size());
+  ivec3 first(std::numeric_limits<int>::max()), end(0);
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    ivec3 f, e;
+    dilated_block(layout.dims(level), blocks[i] * block, block, f, e);
+    lo[i] = f * s;
+    hi[i] = glm::min(e * s, desc_.dims);
+    first = glm::min(first, lo[i]);
+    end = glm::max(end, hi[i]);
+  }
+  const ivec3 n = end - first;
+  const std::size_t count = std::size_t(n.x) * n.y * n.z;
+  std::vector<std::uint8_t> inten(count);
+  std::vector<std::uint32_t> labels(count);
+  synthesize(0, first, n, inten.data(), labels.data());
+  const VolumeView iv{inten.data(), n, vec3(1.0f), VoxelType::U8};
+  const VolumeView lv{labels.data(), n, vec3(1.0f), VoxelType::U32};
+  for (std::size_t i = 0; i < blocks.size(); ++i) out[i] = compute_box_metadata(iv, iv, &lv, lo[i] - first, hi[i] - first);
+  return true;
+}
+
 // ---- "procedural:neurites:XxYxZ[:seed]" ------------------------------------------------------------
 
 bool is_procedural_spec(const std::string& spec) { return spec.rfind("procedural:", 0) == 0; }

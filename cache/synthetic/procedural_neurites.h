@@ -20,6 +20,11 @@
 //    hashes (neurites::cell_summary); past 2³ cells per voxel, a regular subset of 2³ scaled up.
 // Fibres are sampled along their exact curves at every level (coarsely on the coarse ones). Mass is
 // accumulated in 1/256 fixed point, so parallel accumulation is deterministic.
+//
+// Culling bounds (bound_blocks, DESIGN.md §4): on the exact levels 1-2, from the level-0 voxels below
+// each block (synthesised as read_brick does); on the splatted levels >= 3, whose voxels span 8+
+// level-0 voxels and whose blocks (128+ voxels across) all hold tubes, the whole u8 range without
+// labels listed — conservative, and what those blocks' data would give anyway.
 #pragma once
 
 #include <cstdint>
@@ -42,6 +47,8 @@ class ProceduralNeuritesSource final : public VolumeSource {
   const std::string& name() const override { return name_; }
   void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                   std::span<std::byte> out_labels) const override;
+  bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
+                    std::span<BlockMetadata> out) const override;
 
   std::uint32_t seed() const { return seed_; }
   static Method method(int level);

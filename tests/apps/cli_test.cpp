@@ -1,6 +1,7 @@
 // The `sparseleap` executable end to end: the default render, and every bad-input case giving one
 // clear line naming the file, a non-zero exit, and no output left looking complete.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <cstring>
 #include <filesystem>
@@ -213,7 +214,7 @@ TEST(CliOutOfCore, RenderConvergesAndReportsCacheStats) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("out of core"), std::string::npos) << r.output;
   const std::string j = test::read_text(dir / "o.json");
-  for (const char* key : {"\"cache\"", "\"resident_mb\"", "\"loads\"", "\"evictions\"", "\"page_table_kb\"",
+  for (const char* key : {"\"cache\"", "\"resident_mb\"", "\"loads\"", "\"evictions\"", "\"page_table_bytes\"", "\"tree_bytes\"",
                           "\"converged_at_frame\"", "\"metadata_blocks\""}) {
     EXPECT_NE(j.find(key), std::string::npos) << key;
   }
@@ -246,6 +247,60 @@ TEST(CliOutOfCore, BenchReportsFramesToConvergencePerView) {
   const std::string j = test::read_text(dir / "b.json");
   EXPECT_NE(j.find("\"frames_to_converge\""), std::string::npos) << j;
   EXPECT_NE(j.find("\"loads_per_frame\""), std::string::npos) << j;
+}
+
+// Issue 14's soak flags: a generated orbit-zoom path, RSS at given frames, stalls, time to
+// convergence and metadata memory in the JSON; prefetch counted apart; bad values are one line.
+TEST(CliOutOfCore, BenchSoakFlagsReportRssStallsAndConvergence) {
+  const auto dir = test::scratch_dir();
+  test::RunResult r = test::run_sparseleap(
+      "bench --volume builtin:neurites:48x48x48 --cache-mb 8 --brick 16 --path-kind orbit-zoom --orbit 6 "
+      "--size 32x32 --prefetch on --rss-at 1,3,100000 --max-frames 500 --json " + (dir / "b.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("RSS at frame 1: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("RSS at frame 3: "), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("RSS at frame 100000: not reached"), std::string::npos) << r.output;
+  const nlohmann::json j = nlohmann::json::parse(test::read_text(dir / "b.json"));
+  const nlohmann::json& m = j["methods"]["sparseleap"];
+  EXPECT_EQ(m["views_rendered"], 6);
+  EXPECT_EQ(m["unconverged_views"], 0);
+  EXPECT_GT(m["rss_mb_at_frame"]["1"].get<double>(), 1.0);
+  EXPECT_FALSE(m["rss_mb_at_frame"].contains("100000"));
+  EXPECT_GT(m["page_table_bytes"].get<double>(), 0.0);
+  EXPECT_GT(m["tree_bytes"].get<double>(), 0.0);
+  EXPECT_TRUE(m.contains("stall_frames"));
+  EXPECT_TRUE(m.contains("prefetch_hits"));
+  EXPECT_TRUE(j["prefetch"].get<bool>());
+  int frames = 0;
+  for (const auto& v : m["views"]) {
+    EXPECT_GT(v["frames_to_converge"].get<int>(), 0);
+    EXPECT_GT(v["ms_to_converge"].get<double>(), 0.0);
+    frames += v["frames_to_converge"].get<int>();
+  }
+  EXPECT_EQ(m["frames"].get<int>(), frames);
+
+  // --max-frames stops the run; the view it cuts is not counted as unconverged.
+  r = test::run_sparseleap("bench --volume builtin:neurites:48x48x48 --cache-mb 8 --brick 16 --path-kind zoom-in "
+                           "--orbit 6 --size 32x32 --max-frames 2 --json " + (dir / "c.json").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json c = nlohmann::json::parse(test::read_text(dir / "c.json"));
+  EXPECT_EQ(c["methods"]["sparseleap"]["frames"], 2);
+  EXPECT_EQ(c["methods"]["sparseleap"]["unconverged_views"], 0);
+
+  for (const char* bad : {"--path-kind spiral", "--rss-at 0", "--rss-at 10,x", "--prefetch maybe", "--max-frames -1"}) {
+    r = test::run_sparseleap(std::string("bench --volume builtin:neurites:16x16x16 --cache-mb 8 --brick 16 --size 8x8 ") + bad);
+    EXPECT_NE(r.exit_code, 0) << bad;
+    const std::string flag = std::string(bad).substr(0, std::string(bad).find(' '));
+    EXPECT_NE(r.output.find(flag), std::string::npos) << bad << ": " << r.output;
+  }
+  test::write_text(dir / "p.json", "{\"keyframes\":[{\"eye\":[0,0,50],\"center\":[8,8,8],\"up\":[0,1,0]}]}");
+  r = test::run_sparseleap("bench --volume builtin:neurites:16x16x16 --cache-mb 8 --brick 16 --size 8x8 --path-kind orbit --path " +
+                           (dir / "p.json").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--path-kind"), std::string::npos) << r.output;
+  r = test::run_sparseleap("bench --volume builtin:neurites:16x16x16 --size 8x8 --rss-at 5");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--rss-at"), std::string::npos) << r.output;
 }
 
 }  // namespace

@@ -184,5 +184,34 @@ TEST(RenderOptions, BenchRejectsAnEmptyOrbitInAndOutOfCore) {
   }
 }
 
+TEST(RenderOptions, InjectFaultsSpecsAreCheckedEverywhere) {
+  expect_same_error("--cache-mb 8 --inject-faults permanent=2",
+                    "sparseleap: --inject-faults: permanent must be a share in [0, 1], got '2'", 2);
+  expect_same_error("--cache-mb 8 --inject-faults bogus=1",
+                    "sparseleap: --inject-faults: unknown key 'bogus' (expected permanent, transient, short, recover, "
+                    "delay, delay-ms, seed)", 2);
+  expect_same_error("--inject-faults transient=0.1",
+                    "sparseleap: error: --inject-faults: faults are injected into out-of-core brick reads: add --cache-mb");
+}
+
+TEST(RenderOptions, InjectedFaultsAreCountedInTheSummaryAndStats) {
+  const fs::path dir = test::scratch_dir();
+  const test::RunResult r =
+      run("render", small("--size 32x32 --cache-mb 16 --brick 8 --block 8 --lod 0 --frames 30 --inject-faults "
+                          "permanent=0.2,transient=0.2,seed=3 --out " + (dir / "f").string() + " --stats-json " +
+                          (dir / "f.json").string()));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json c = nlohmann::json::parse(test::read_text(dir / "f.json"))["cache"];
+  EXPECT_GT(c["failed"].get<int>(), 0) << r.output;
+  EXPECT_GT(c["bricks_retried"].get<int>(), 0) << r.output;
+  EXPECT_GE(c["retries"].get<int>(), c["bricks_retried"].get<int>());
+  EXPECT_LE(c["recovered"].get<int>(), c["bricks_retried"].get<int>());
+  EXPECT_NE(r.output.find(std::to_string(c["failed"].get<int>()) + " bricks failed, " +
+                          std::to_string(c["bricks_retried"].get<int>()) + " retried ("),
+            std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("injected read error in level 0 brick ("), std::string::npos) << r.output;
+}
+
 }  // namespace
 }  // namespace sl

@@ -4,11 +4,16 @@
 
 #include <algorithm>
 #include <atomic>
+#include <chrono>
 #include <condition_variable>
 #include <mutex>
 #include <thread>
+#include <unordered_set>
 #include <vector>
 
+#include <rapidcheck/gtest.h>
+
+#include "cache/fault_injection.h"
 #include "cache/synthetic/generate.h"
 #include "core/error.h"
 
@@ -46,6 +51,7 @@ class GatedSource final : public VolumeSource {
       std::unique_lock lock(mutex_);
       ++entered;
       opened_.wait(lock, [&] { return open_; });
+      order.push_back(id);
     }
     ++reads;
     if (id.level() == 0 && id.coord().x == 1) throw InputError(name_, "corrupt chunk");
@@ -60,6 +66,7 @@ class GatedSource final : public VolumeSource {
   }
   mutable std::atomic<int> reads{0};
   mutable std::atomic<int> entered{0};
+  mutable std::vector<BrickId> order;  // ids in the order reads passed the gate
 
  private:
   std::shared_ptr<const VolumeSource> inner_;
@@ -123,6 +130,28 @@ TEST(BrickLoader, CollectNeverWaitsForLoads) {
   EXPECT_EQ(loader.collect(100).bricks.size() + loader.failed_count(), 2u);
 }
 
+// Prefetch (issue 14): a prefetch starts only when no request waits, and requesting a queued
+// prefetch promotes it ahead of the other prefetches.
+TEST(BrickLoader, PrefetchWaitsForRequestsAndARequestPromotesIt) {
+  const auto gated = std::make_shared<GatedSource>(neurites_source());
+  const BrickLayout layout = BrickLayout::make(gated->desc(), 16);
+  BrickLoader loader(gated, layout, 1);
+  const BrickId a = BrickId::pack(0, {0, 0, 0}), b = BrickId::pack(0, {0, 1, 0});
+  const BrickId p1 = BrickId::pack(0, {2, 0, 0}), p2 = BrickId::pack(0, {0, 0, 1}), p3 = BrickId::pack(0, {2, 1, 0});
+  EXPECT_EQ(loader.request(std::vector<BrickId>{a}), 1u);
+  while (gated->entered.load() < 1) std::this_thread::yield();  // the one worker holds `a`
+  EXPECT_EQ(loader.prefetch(std::vector<BrickId>{p1, p2, p3}), 3u);
+  EXPECT_EQ(loader.prefetch(std::vector<BrickId>{p1, a}), 0u);  // known already: not twice
+  EXPECT_EQ(loader.request(std::vector<BrickId>{b}), 1u);
+  EXPECT_EQ(loader.request(std::vector<BrickId>{p3}), 1u);  // promoted
+  EXPECT_EQ(loader.pending(), 5u);
+  gated->open();
+  loader.wait_idle();
+  EXPECT_EQ(gated->order, (std::vector<BrickId>{a, b, p3, p1, p2}));
+  EXPECT_EQ(loader.collect(10).bricks.size(), 5u);
+  EXPECT_EQ(loader.pending(), 0u);
+}
+
 TEST(BrickLoader, FailedBrickReportedOnceAndNeverRetried) {
   const auto gated = std::make_shared<GatedSource>(neurites_source());
   gated->open();
@@ -155,6 +184,282 @@ TEST(BrickLoader, FailedBrickReportedOnceAndNeverRetried) {
   loader.wait_idle();
   EXPECT_EQ(gated->reads.load(), reads);
   EXPECT_TRUE(loader.collect(100).failures.empty());
+}
+
+// A source whose chosen bricks fail transiently on every read (a store that stays down).
+class DownSource final : public VolumeSource {
+ public:
+  DownSource(std::shared_ptr<const VolumeSource> inner, BrickId down) : inner_(std::move(inner)), down_(down) {}
+  const VolumeDesc& desc() const override { return inner_->desc(); }
+  bool has_labels() const override { return inner_->has_labels(); }
+  VoxelType label_type() const override { return inner_->label_type(); }
+  const std::string& name() const override { return name_; }
+  void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                  std::span<std::byte> out_labels) const override {
+    if (id == down_) {
+      ++down_reads;
+      throw TransientError(name_, "HTTP 503");
+    }
+    inner_->read_brick(layout, id, out_intensity, out_labels);
+  }
+  mutable std::atomic<int> down_reads{0};
+
+ private:
+  std::shared_ptr<const VolumeSource> inner_;
+  BrickId down_;
+  std::string name_ = "https://example.org/v.zarr";
+};
+
+// Waits (tests only) until `done()`; a hang is caught by ctest's timeout.
+template <class F>
+void wait_until(F done) {
+  while (!done()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+// Every batch until the loader is idle and everything finished is collected.
+LoaderBatch collect_all(BrickLoader& loader) {
+  loader.wait_idle();
+  LoaderBatch all;
+  for (;;) {
+    LoaderBatch b = loader.collect(7);
+    for (BrickFailure& f : b.failures) all.failures.push_back(std::move(f));
+    if (b.bricks.empty()) break;
+    for (LoadedBrick& x : b.bricks) all.bricks.push_back(std::move(x));
+  }
+  return all;
+}
+
+RetryPolicy fast_retries(int attempts) {
+  RetryPolicy r;
+  r.max_attempts = attempts;
+  r.first_backoff = std::chrono::milliseconds(1);
+  r.max_backoff = std::chrono::milliseconds(4);
+  return r;
+}
+
+TEST(BrickLoader, BackoffDoublesUpToItsCap) {
+  const RetryPolicy r;
+  EXPECT_EQ(r.backoff(0).count(), 50);
+  EXPECT_EQ(r.backoff(1).count(), 100);
+  EXPECT_EQ(r.backoff(3).count(), 400);
+  EXPECT_EQ(r.backoff(5).count(), 1000);
+  EXPECT_EQ(r.backoff(60).count(), 1000);
+}
+
+TEST(BrickLoader, TransientFaultsAreRetriedAndTheBricksArriveIntact) {
+  const auto inner = neurites_source();
+  const BrickLayout layout = BrickLayout::make(inner->desc(), 16);
+  FaultSpec spec;
+  spec.transient = 0.5;
+  spec.short_read = 0.5;  // every brick fails its first 1..3 reads
+  spec.recover = 3;
+  const auto src = std::make_shared<FaultInjectingSource>(inner, spec);
+  BrickLoader loader(src, layout, 2, fast_retries(4));
+  const std::vector<BrickId> ids = all_bricks(layout);
+  loader.request(ids);
+  const LoaderBatch got = collect_all(loader);
+  EXPECT_TRUE(got.failures.empty());
+  ASSERT_EQ(got.bricks.size(), ids.size());
+  std::uint64_t retries = 0;
+  for (const LoadedBrick& b : got.bricks) {
+    // Short reads leave garbage behind: a brick is handed out only from a whole read.
+    std::vector<std::byte> v(b.intensity.size()), l(b.labels.size());
+    inner->read_brick(layout, b.id, v, l);
+    EXPECT_EQ(b.intensity, v) << to_string(b.id);
+    EXPECT_EQ(b.labels, l) << to_string(b.id);
+    const int k = spec.fault(b.id).failing_attempts;
+    EXPECT_EQ(src->attempts(b.id), k + 1);
+    retries += std::uint64_t(k);
+  }
+  const LoaderCounts c = loader.counts();
+  EXPECT_EQ(c.bricks_retried, ids.size());
+  EXPECT_EQ(c.recovered, ids.size());
+  EXPECT_EQ(c.retries, retries);
+  EXPECT_EQ(c.failed, 0u);
+  EXPECT_EQ(loader.pending(), 0u);
+}
+
+TEST(BrickLoader, ABrickThatKeepsFailingTransientlyFailsAfterNAttemptsReportedOnce) {
+  const BrickId down = BrickId::pack(0, {1, 1, 0});
+  const auto src = std::make_shared<DownSource>(neurites_source(), down);
+  const BrickLayout layout = BrickLayout::make(src->desc(), 16);
+  BrickLoader loader(src, layout, 2, fast_retries(3));
+  const std::vector<BrickId> ids = all_bricks(layout);
+  loader.request(ids);
+  const LoaderBatch got = collect_all(loader);
+  EXPECT_EQ(src->down_reads.load(), 3);
+  EXPECT_EQ(got.bricks.size(), ids.size() - 1);
+  ASSERT_EQ(got.failures.size(), 1u);
+  EXPECT_EQ(got.failures[0].id, down);
+  EXPECT_EQ(got.failures[0].reason, "https://example.org/v.zarr: " + to_string(down) +
+                                        ": HTTP 503 (still failing after 3 attempts)");
+  EXPECT_TRUE(loader.failed(down));
+  const LoaderCounts c = loader.counts();
+  EXPECT_EQ(c.bricks_retried, 1u);
+  EXPECT_EQ(c.retries, 2u);
+  EXPECT_EQ(c.recovered, 0u);
+  EXPECT_EQ(c.failed, 1u);
+  // Failed for good: never read or reported again.
+  EXPECT_EQ(loader.request(std::vector<BrickId>{down}), 0u);
+  EXPECT_TRUE(collect_all(loader).failures.empty());
+  EXPECT_EQ(src->down_reads.load(), 3);
+}
+
+// Regression: idle workers wait for the earliest retry's due time while another worker pushes a
+// retry onto the backoff queue, reallocating it. The wait once held a reference into that queue — a
+// use-after-free that ASan caught in a clean-clone CI run. Requests trickle in one at a time and
+// every read fails, so the queue grows through each capacity step while three workers wait on it.
+TEST(BrickLoader, WorkersWaitingForRetriesSurviveTheBackoffQueueGrowing) {
+  const auto inner = neurites_source();
+  const BrickLayout layout = BrickLayout::make(inner->desc(), 8);
+  FaultSpec spec;
+  spec.transient = 1.0;
+  spec.recover = 1000;  // k >= 8 for nearly all: they outlast the attempts
+  RetryPolicy r;
+  r.max_attempts = 8;
+  r.first_backoff = std::chrono::milliseconds(1);
+  r.max_backoff = std::chrono::milliseconds(2);
+  const std::vector<BrickId> all = all_bricks(layout);
+  const std::vector<BrickId> ids(all.begin(), all.begin() + std::min<std::ptrdiff_t>(64, std::ptrdiff_t(all.size())));
+  ASSERT_EQ(ids.size(), 64u);
+  for (int round = 0; round < 4; ++round) {
+    const auto src = std::make_shared<FaultInjectingSource>(inner, spec);  // attempts count from 0
+    BrickLoader loader(src, layout, 4, r);
+    for (const BrickId id : ids) {
+      loader.request(std::vector<BrickId>{id});
+      std::this_thread::sleep_for(std::chrono::microseconds(100));
+    }
+    const LoaderBatch got = collect_all(loader);
+    std::size_t failed = 0;
+    for (const BrickId id : ids) {
+      if (spec.fault(id).failing_attempts >= r.max_attempts) ++failed;
+    }
+    EXPECT_EQ(got.failures.size(), failed);
+    EXPECT_EQ(got.bricks.size() + got.failures.size(), ids.size());
+    const LoaderCounts c = loader.counts();
+    EXPECT_EQ(c.bricks_retried, ids.size());
+    EXPECT_EQ(c.failed, failed);
+    EXPECT_EQ(c.recovered, ids.size() - failed);
+    EXPECT_EQ(loader.pending(), 0u);
+  }
+}
+
+TEST(BrickLoader, PermanentFaultsAreNotRetried) {
+  const auto inner = neurites_source();
+  const BrickLayout layout = BrickLayout::make(inner->desc(), 16);
+  FaultSpec spec;
+  spec.permanent = 1.0;
+  const auto src = std::make_shared<FaultInjectingSource>(inner, spec);
+  BrickLoader loader(src, layout, 2, fast_retries(5));
+  const std::vector<BrickId> ids = all_bricks(layout);
+  loader.request(ids);
+  const LoaderBatch got = collect_all(loader);
+  EXPECT_TRUE(got.bricks.empty());
+  ASSERT_EQ(got.failures.size(), ids.size());
+  for (const BrickFailure& f : got.failures) {
+    EXPECT_EQ(src->attempts(f.id), 1) << to_string(f.id);
+    EXPECT_EQ(f.cause, "injected read error in " + to_string(f.id));
+  }
+  EXPECT_EQ(loader.counts().retries, 0u);
+  EXPECT_EQ(loader.counts().bricks_retried, 0u);
+  EXPECT_EQ(loader.counts().failed, ids.size());
+}
+
+TEST(BrickLoader, ARetryWaitingForItsBackoffBlocksNeitherWorkersNorCollect) {
+  const BrickId down = BrickId::pack(0, {0, 0, 0});
+  const auto src = std::make_shared<DownSource>(neurites_source(), down);
+  const BrickLayout layout = BrickLayout::make(src->desc(), 16);
+  RetryPolicy hour;
+  hour.first_backoff = hour.max_backoff = std::chrono::hours(1);
+  BrickLoader loader(src, layout, 1, hour);  // one worker: were it asleep in the backoff, nothing would load
+  const std::vector<BrickId> ids = all_bricks(layout);
+  loader.request(ids);  // the failing brick first
+  std::size_t loaded = 0;
+  while (loaded < ids.size() - 1) {
+    const LoaderBatch b = loader.collect(4);
+    EXPECT_TRUE(b.failures.empty());
+    loaded += b.bricks.size();
+    if (b.bricks.empty()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  EXPECT_EQ(src->down_reads.load(), 1);
+  EXPECT_EQ(loader.pending(), 1u);  // the retry, waiting
+  EXPECT_EQ(loader.counts().retries, 1u);
+  EXPECT_TRUE(loader.collect(100).bricks.empty());
+  // Cancel drops it: nothing pending, idle at once, and it may be requested afresh.
+  EXPECT_EQ(loader.cancel_queued(), 1u);
+  EXPECT_EQ(loader.pending(), 0u);
+  loader.wait_idle();
+  EXPECT_FALSE(loader.failed(down));
+  EXPECT_EQ(loader.request(std::vector<BrickId>{down}), 1u);
+  wait_until([&] { return src->down_reads.load() == 2; });
+  EXPECT_EQ(loader.pending(), 1u);
+  // The destructor does not wait an hour for the backoff (ctest's timeout would fail the test).
+}
+
+TEST(BrickLoader, InjectedDelaysNeverBlockCollect) {
+  const auto inner = neurites_source();
+  const BrickLayout layout = BrickLayout::make(inner->desc(), 16);
+  FaultSpec spec;
+  spec.delay = 1.0;
+  spec.delay_ms = 500;
+  const auto src = std::make_shared<FaultInjectingSource>(inner, spec);
+  BrickLoader loader(src, layout, 1);
+  const std::vector<BrickId> ids{BrickId::pack(0, {0, 0, 0}), BrickId::pack(0, {1, 0, 0})};
+  loader.request(ids);
+  wait_until([&] { return src->attempts(ids[0]) == 1; });  // the worker sleeps in the first read
+  // The frame loop goes on meanwhile: these return at once, long before the second's delay.
+  for (int frame = 0; frame < 100; ++frame) EXPECT_TRUE(loader.collect(8).bricks.empty());
+  EXPECT_EQ(loader.pending(), 2u);
+  EXPECT_EQ(collect_all(loader).bricks.size(), 2u);
+}
+
+// For any spec and attempt limit, the bricks that finally fail are exactly those the spec fails for
+// good or whose transient failures outlast the attempts; every other brick arrives, each failure is
+// reported once, and the counts add up.
+RC_GTEST_PROP(BrickLoaderProperty, FinalFailuresAreThoseTheSpecSays, ()) {
+  static const auto inner = neurites_source();
+  const BrickLayout layout = BrickLayout::make(inner->desc(), 16);
+  FaultSpec spec;
+  // Shares in tenths, summing to at most 1.
+  const int p = *rc::gen::inRange(0, 11);
+  const int t = *rc::gen::inRange(0, 11 - p);
+  const int sh = *rc::gen::inRange(0, 11 - p - t);
+  spec.permanent = 0.1 * p;
+  spec.transient = 0.1 * t;
+  spec.short_read = 0.1 * sh;
+  spec.recover = *rc::gen::inRange(1, 6);
+  spec.seed = *rc::gen::arbitrary<std::uint64_t>();
+  const int attempts = *rc::gen::inRange(1, 5);
+  RetryPolicy retry;
+  retry.max_attempts = attempts;
+  retry.first_backoff = retry.max_backoff = std::chrono::milliseconds(0);
+  const auto src = std::make_shared<FaultInjectingSource>(inner, spec);
+  BrickLoader loader(src, layout, 2, retry);
+  const std::vector<BrickId> ids = all_bricks(layout);
+  loader.request(ids);
+  const LoaderBatch got = collect_all(loader);
+
+  std::unordered_set<BrickId, BrickIdHash> failed;
+  for (const BrickFailure& f : got.failures) RC_ASSERT(failed.insert(f.id).second);  // once each
+  std::uint64_t retried = 0, retries = 0, recovered = 0;
+  for (const BrickId id : ids) {
+    const BrickFault f = spec.fault(id);
+    const bool flaky = f.kind == FaultKind::Transient || f.kind == FaultKind::ShortRead;
+    const bool fails = f.kind == FaultKind::Permanent || (flaky && f.failing_attempts >= attempts);
+    RC_ASSERT(failed.count(id) == (fails ? 1u : 0u));
+    RC_ASSERT(loader.failed(id) == fails);
+    if (flaky && attempts > 1) {
+      ++retried;
+      retries += std::uint64_t(std::min(f.failing_attempts, attempts - 1));
+      recovered += fails ? 0u : 1u;
+    }
+  }
+  RC_ASSERT(got.bricks.size() + got.failures.size() == ids.size());
+  const LoaderCounts c = loader.counts();
+  RC_ASSERT(c.bricks_retried == retried);
+  RC_ASSERT(c.retries == retries);
+  RC_ASSERT(c.recovered == recovered);
+  RC_ASSERT(c.failed == got.failures.size());
 }
 
 TEST(BrickLoader, DestructionWithWorkQueuedDoesNotHang) {

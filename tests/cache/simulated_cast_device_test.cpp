@@ -12,6 +12,7 @@
 #include "cache/out_of_core.h"
 #include "cache/simulated_cast_device.h"
 #include "core/in_core_renderer.h"
+#include "tests/test_util.h"
 
 namespace sl {
 namespace {
@@ -64,14 +65,7 @@ Frame converge(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSe
   return f;
 }
 
-float max_abs_diff(const Image& a, const Image& b) {
-  float m = 0.0f;
-  for (std::size_t i = 0; i < a.rgba.size(); ++i) {
-    const vec4 d = glm::abs(a.rgba[i] - b.rgba[i]);
-    m = std::max({m, d.x, d.y, d.z, d.w});
-  }
-  return m;
-}
+using test::max_abs_diff;
 
 float total_alpha(const Image& img) {
   float a = 0.0f;
@@ -106,6 +100,49 @@ TEST(SimulatedCastDevice, ConvergedImageEqualsCpuOutOfCoreAndInCore) {
   // Uploads complete one frame later than on the CPU, so convergence may take a frame or two more.
   EXPECT_GE(sim_frames, cpu_frames);
   EXPECT_LE(sim_frames, cpu_frames + 6);
+}
+
+// A device with its own memory counts the shortfall in its own counters (as the CUDA device does in
+// device memory) and the host adds them: completeness and lod_coarsened equal the CPU's, both for a
+// pinned level that does not fit (incomplete) and for the automatic level coarsened under pressure.
+TEST(SimulatedCastDevice, CountsTheSameShortfallAsTheCpu) {
+  const Data d = neurites(ivec3(160, 128, 96), 5);
+  const TransferFunction tf = default_transfer_function(0, 255);
+  const Camera cam = default_camera(d.volume->desc().extent());
+  RenderSettings s;
+  s.width = 96;
+  s.height = 72;
+  for (const int lod : {0, -1}) {
+    SCOPED_TRACE("lod " + std::to_string(lod));
+    OutOfCoreSettings os;
+    os.brick = 16;
+    os.lod = lod;
+    os.lod_bias = 0.5f;
+    os.cache_mb = 1;
+    const OutOfCoreScene scene{&tf, nullptr, cam};
+    Rig cpu = make_rig(d, os, 16, false);
+    Rig sim = make_rig(d, os, 16, true);
+    const Frame a = converge(*cpu.renderer, scene, s);
+    const Frame b = converge(*sim.renderer, scene, s);
+    if (lod == 0) {
+      EXPECT_LT(a.stats.cache.completeness, 1.0) << "the pinned level must not fit";
+    } else {
+      EXPECT_GT(a.stats.cache.lod_coarsened, 0.0) << "the automatic level must be coarsened";
+    }
+    EXPECT_EQ(a.stats.cache.completeness, b.stats.cache.completeness);
+    EXPECT_EQ(a.stats.cache.lod_coarsened, b.stats.cache.lod_coarsened);
+    EXPECT_EQ(max_abs_diff(a.image, b.image), 0.0f);
+  }
+}
+
+TEST(AddShortfall, SumsIntoTheHostCountersOrNothingWithoutThem) {
+  std::vector<std::uint64_t> host(SampleShortfall::kWords, 1), device(SampleShortfall::kWords);
+  for (std::uint32_t w = 0; w < SampleShortfall::kWords; ++w) device[w] = w;
+  SampleShortfall h;
+  h.counters = host.data();
+  add_shortfall(h, device);
+  for (std::uint32_t w = 0; w < SampleShortfall::kWords; ++w) EXPECT_EQ(host[w], 1u + w);
+  add_shortfall(SampleShortfall{}, device);  // a frame that does not count
 }
 
 TEST(SimulatedCastDevice, UploadsOnlyNewBricksAndChangedPageTableWords) {
@@ -276,7 +313,7 @@ TEST(PageTableUpdate, SplitHoldsBackOnlyWordsMappingInFlightSlots) {
   EXPECT_EQ(now.pool_index, (std::vector<std::uint64_t>{0, 2, 3}));
   EXPECT_EQ(later.pool_index, (std::vector<std::uint64_t>{1}));
   EXPECT_EQ(later.pool_value[0], PageEntry::resident(6).bits);
-  EXPECT_EQ(u.pool_words_needed(), std::uint64_t(kPageEntries));  // directory value 1 = page 0
+  EXPECT_EQ(u.pool_words_needed(), std::uint64_t(kChunkWords));  // directory value 1 = chunk 0
 }
 
 }  // namespace

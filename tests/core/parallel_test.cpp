@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <stdexcept>
 #include <vector>
 
 #include "core/parallel.h"
@@ -37,6 +38,22 @@ TEST(ParallelFor, EmptyRangeCallsNothing) {
   parallel_for(5, 5, [&](int) { ++calls; });
   parallel_for(std::int64_t(3), std::int64_t(3), [&](std::int64_t, std::int64_t) { ++calls; });
   EXPECT_EQ(calls, 0);
+}
+
+// TBB rethrows a body's exception in the caller, and so does the std::thread path of ThreadSanitizer
+// builds (core/parallel.h): the input errors thrown inside loops reach the one catch in apps/.
+TEST(ParallelFor, AnExceptionInABodyReachesTheCaller) {
+  std::atomic<int> calls{0};
+  EXPECT_THROW(parallel_for(0, 1000, [&](int i) {
+                 ++calls;
+                 if (i == 500) throw std::runtime_error("bad index");
+               }),
+               std::runtime_error);
+  EXPECT_GE(calls.load(), 1);
+  EXPECT_THROW(parallel_for_tiles(64, 64, [](int x0, int y0, int, int) {
+                 if (x0 == 16 && y0 == 32) throw std::runtime_error("bad tile");
+               }),
+               std::runtime_error);
 }
 
 TEST(ParallelReduce, SumsAndMaximaAreExactForAnyThreadCount) {

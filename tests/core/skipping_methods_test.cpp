@@ -24,6 +24,8 @@ struct Case {
   int camera = 0;         // 0 default, 1 inside, 2 orthographic, 3 grazing along a face
   int block = 16;
   bool ert = false;
+  IsoMethod iso_method = IsoMethod::Exact;  // iso mode: exact roots (the default) or sampled bisection
+  bool shade = false;                       // dvr: Blinn–Phong (--shade)
 };
 
 class SkippingMethods : public ::testing::TestWithParam<Case> {
@@ -83,6 +85,8 @@ TEST_P(SkippingMethods, ProduceIdenticalImages) {
   s.height = 53;
   s.mode = k.mode;
   s.iso = 150.0f;
+  s.iso_method = k.iso_method;
+  s.lighting.enabled = k.shade;
   s.block = k.block;
   s.ert = k.ert;
   s.fine_cell = 0;  // the four methods as the paper has them; the fine grid is checked below
@@ -144,7 +148,17 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"rays_in_block_planes", RenderMode::Dvr, 0, "", 3},
                       Case{"block4", RenderMode::Dvr, 0, "fraction:0.1:3", 0, 4},
                       Case{"block32_ert", RenderMode::Dvr, 2, "", 0, 32, true},
-                      Case{"block8_inside_iso", RenderMode::Iso, 0, "", 1, 8}),
+                      Case{"block8_inside_iso", RenderMode::Iso, 0, "", 1, 8},
+                      Case{"iso_sampled", RenderMode::Iso, 0, "", 0, 16, false, IsoMethod::Sampled},
+                      Case{"iso_labels_sampled", RenderMode::Iso, 0, "fraction:0.5:2", 0, 16, false, IsoMethod::Sampled},
+                      Case{"block8_inside_iso_sampled", RenderMode::Iso, 0, "", 1, 8, false, IsoMethod::Sampled},
+                      Case{"iso_orthographic", RenderMode::Iso, 0, "", 2},
+                      Case{"iso_rays_in_block_planes", RenderMode::Iso, 0, "", 3},
+                      Case{"block4_iso_labels", RenderMode::Iso, 0, "fraction:0.3:4", 0, 4},
+                      Case{"dvr_shaded", RenderMode::Dvr, 0, "", 0, 16, false, IsoMethod::Exact, true},
+                      Case{"dvr_shaded_narrow_labels", RenderMode::Dvr, 1, "fraction:0.3:1", 0, 16, false,
+                           IsoMethod::Exact, true},
+                      Case{"dvr_shaded_inside_ert", RenderMode::Dvr, 2, "", 1, 8, true, IsoMethod::Exact, true}),
     [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
 
 TEST(SkippingReuse, TransferFunctionAndLabelChangesReuseMetadata) {

@@ -13,10 +13,10 @@
 #include "core/labels.h"
 #include "tests/fuzz/fuzz_util.h"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+SL_FUZZ_TARGET(input) {
   std::vector<std::string> args;
-  for (const auto a : sl::fuzz::split(sl::fuzz::as_text(data, size), "\n", 64)) args.emplace_back(a);
-  if (args.size() < 2) return 0;
+  for (const auto a : sl::fuzz::split(input, "\n", 64)) args.emplace_back(a);
+  if (args.size() < 2) return;
   CLI::App app{"fuzz"};
   app.require_subcommand(1);
   sl::app::RenderOptions o[3];
@@ -30,15 +30,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   try {
     app.parse(argv);
   } catch (const CLI::ParseError&) {
-    return 0;  // a syntax error: main() prints it and exits 2
+    return;  // a syntax error: main() prints it and exits 2
   }
   for (const sl::app::RenderOptions& r : o) {
-    try {
+    sl::fuzz::accepted([&] {
       sl::app::check_render_options(r);
       if (!r.scene.enable.empty()) sl::parse_enable_spec(r.scene.enable, 1000);
       if (sl::is_procedural_spec(r.scene.volume)) sl::parse_volume_spec(r.scene.volume);
-    } catch (const sl::InputError&) {
-    }
+      return true;
+    });
   }
-  return 0;
 }

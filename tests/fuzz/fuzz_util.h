@@ -1,4 +1,5 @@
-// Shared by the libFuzzer targets (scripts/fuzz): a private scratch directory for the parsers that
+// Shared by the libFuzzer targets (scripts/fuzz): the entry point, the one rule for what a parser may
+// do with bad input (refuse it with an InputError), a private scratch directory for the parsers that
 // read files by name (NRRD, NIfTI and TIFF go through stdio, zlib's gzopen and libtiff; a Zarr store
 // is a directory), and how one input is cut into the several files a format spans.
 #pragma once
@@ -7,9 +8,23 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
+
+#include "cache/formats/volume_file.h"
+#include "core/error.h"
+
+// Defines the target: the block that follows runs once per input, `input` holding its bytes. Whatever
+// escapes the block (an exception, an abort on a broken invariant, a sanitizer report) is a finding.
+#define SL_FUZZ_TARGET(input)                                                              \
+  static void sl_fuzz_one(std::string_view input);                                         \
+  extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {      \
+    sl_fuzz_one(std::string_view(reinterpret_cast<const char*>(data), size));              \
+    return 0;                                                                              \
+  }                                                                                        \
+  static void sl_fuzz_one(std::string_view input)
 
 namespace sl::fuzz {
 
@@ -73,8 +88,24 @@ inline std::vector<std::string_view> split(std::string_view s, std::string_view 
   return parts;
 }
 
-inline std::string_view as_text(const std::uint8_t* data, std::size_t size) {
-  return std::string_view(reinterpret_cast<const char*>(data), size);
+// What step() returns, or nullopt when it refused the input with an InputError: the one outcome
+// allowed for bad input. Any other exception escapes and is a finding.
+template <class Step>
+auto accepted(Step&& step) -> std::optional<decltype(step())> {
+  try {
+    return step();
+  } catch (const sl::InputError&) {
+    return std::nullopt;
+  }
+}
+
+// `input` as the file `name` in the scratch directory, read whole as render reads a volume file
+// (when its header claims at most kMaxVolumeBytes).
+inline void read_volume_file(std::string_view input, const std::string& name) {
+  const std::string path = (scratch().reset() / name).string();
+  write_file(path, input);
+  const auto desc = accepted([&] { return sl::read_volume_file_desc(path); });
+  if (desc && desc->byte_size() <= kMaxVolumeBytes) accepted([&] { return sl::read_volume_file(path); });
 }
 
 }  // namespace sl::fuzz

@@ -1,20 +1,16 @@
 // Transfer-function JSON (core/transfer_function.cpp): parsed; what parses is written back and must
 // read back to the same points (the viewer saves what it loaded), and its tables are looked up.
 #include <cmath>
-#include <cstdint>
 #include <limits>
 
 #include "core/error.h"
 #include "core/transfer_function.h"
 #include "tests/fuzz/fuzz_util.h"
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  sl::TransferFunction tf;
-  try {
-    tf = sl::parse_transfer_function(std::string(sl::fuzz::as_text(data, size)), "tf.json");
-  } catch (const sl::InputError&) {
-    return 0;
-  }
+SL_FUZZ_TARGET(input) {
+  const auto parsed = sl::fuzz::accepted([&] { return sl::parse_transfer_function(std::string(input), "tf.json"); });
+  if (!parsed) return;
+  const sl::TransferFunction& tf = *parsed;
   const sl::TransferFunction back = sl::parse_transfer_function(sl::transfer_function_to_json(tf), "written");
   if (back.points().size() != tf.points().size()) std::abort();
   for (std::size_t i = 0; i < tf.points().size(); ++i) {
@@ -28,5 +24,4 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (!(c.w >= 0.0f && c.w <= 1.0f)) std::abort();
     tf.max_opacity(p, tf.vmax());
   }
-  return 0;
 }

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "cache/formats/zarr_codec.h"
+#include "tests/fuzz/fuzz_util.h"
 
 namespace {
 
@@ -30,8 +31,10 @@ sl::zarr::Compressor pick(std::uint8_t b) {
 
 }  // namespace
 
-extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  if (size < 3) return 0;
+SL_FUZZ_TARGET(input) {
+  const auto* data = reinterpret_cast<const std::uint8_t*>(input.data());
+  const std::size_t size = input.size();
+  if (size < 3) return;
   const sl::zarr::Compressor c = pick(data[0]);
   const std::size_t out_size = std::size_t(data[1] | (data[2] << 8)) + 1;
   const std::span<const std::byte> in(reinterpret_cast<const std::byte*>(data + 3), size - 3);
@@ -47,5 +50,4 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     sl::zarr::decode(c, enc, back);  // throws (and so fails) if our own chunk does not read back
     if (std::memcmp(back.data(), in.data(), in.size()) != 0) std::abort();
   }
-  return 0;
 }

@@ -146,9 +146,24 @@ TEST(StatsRows, OutOfCoreFramesShowTheCacheAndRefineUntilNothingIsMissing) {
   EXPECT_EQ(pending_loads(s), 3u);
   EXPECT_TRUE(still_refining(s));
   s.cache.pending = 0;
-  EXPECT_TRUE(still_refining(s));  // misses are resolved by the next frame
+  EXPECT_TRUE(still_refining(s));  // not converged: misses are resolved by the next frame
   s.cache.misses = 0;
+  s.cache.converged_at_frame = 7;
   EXPECT_FALSE(still_refining(s));
+}
+
+// A settled view under pressure keeps misses that no further frame resolves (bricks that do not fit at
+// a pinned level): converged, incomplete, and not refining — the viewer must not repeat it forever.
+TEST(StatsRows, ConvergedButIncompleteFramesStopRefining) {
+  Stats s;
+  s.cache.present = true;
+  s.cache.misses = 64;
+  s.cache.bricks_missing = 64;
+  s.cache.completeness = 0.611;
+  s.cache.converged_at_frame = 6;
+  EXPECT_FALSE(still_refining(s));
+  s.cache.converged_at_frame = -1;
+  EXPECT_TRUE(still_refining(s));
 }
 
 TEST(StatsRows, HumanCounts) {

@@ -149,8 +149,16 @@ std::function<RenderWorker::RenderFn()> make_renderer(const ViewerScene& sc, con
   return [&sc, &o, checked, backend] {
     auto r = std::make_shared<app::SceneRenderer>(sc, o.render, checked, backend);
     // The worker's Scene carries the snapshots (tf, labels, camera); the data come from the scene.
-    return RenderWorker::RenderFn(
-        [r](const Scene& s, const RenderSettings& rs) { return r->render(*s.tf, s.enabled, s.camera, rs); });
+    // Out of core with --prefetch on, the next view is extrapolated from the last two the worker
+    // rendered (prefetch along the camera's motion; a still camera extrapolates to itself).
+    auto last = std::make_shared<std::optional<Camera>>();
+    return RenderWorker::RenderFn([r, last](const Scene& s, const RenderSettings& rs) {
+      const std::optional<Camera> prev = *last;
+      *last = s.camera;
+      if (!prev) return r->render(*s.tf, s.enabled, s.camera, rs);
+      const Camera next = extrapolate_camera(*prev, s.camera);
+      return r->render(*s.tf, s.enabled, s.camera, rs, &next);
+    });
   };
 }
 

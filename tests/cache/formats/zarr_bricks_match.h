@@ -1,5 +1,6 @@
 // The check both Zarr interop suites (v2: zarr_interop_test.cpp, v3: zarr3_interop_test.cpp) make of
-// a store a peer wrote: every brick ZarrVolumeSource cuts equals the peer's expected voxels.
+// a store a peer wrote (and the precomputed suite, precomputed_interop_test.cpp): every brick a chunked-store
+// source cuts equals the peer's expected voxels.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -18,7 +19,7 @@ namespace sl::test {
 // Every stored voxel of every brick of every level equals the expected level voxel (clamped), so
 // chunk-crossing bricks and aprons are checked; levels past the stored ones must equal the 2x
 // reductions (pyramid.h) of the coarsest stored level.
-inline void expect_bricks_match(const ZarrVolumeSource& src, const std::filesystem::path& expected, int stored_levels, int brick,
+inline void expect_bricks_match(const VolumeSource& src, const std::filesystem::path& expected, int stored_levels, int brick,
                          bool labels) {
   const BrickLayout layout = BrickLayout::make(src.desc(), brick);
   const VoxelType t = labels ? src.label_type() : src.desc().type;

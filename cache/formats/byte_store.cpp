@@ -1,4 +1,4 @@
-#include "cache/formats/zarr3_store.h"
+#include "cache/formats/byte_store.h"
 
 #include <fcntl.h>
 #include <sys/stat.h>
@@ -8,7 +8,7 @@
 #include <cstring>
 #include <stdexcept>
 
-namespace sl::zarr::v3 {
+namespace sl {
 namespace {
 
 struct Fd {
@@ -76,4 +76,10 @@ std::optional<std::vector<std::byte>> LocalByteStore::read_suffix(const std::str
   return pread_all(f.fd, size - n, n);
 }
 
-}  // namespace sl::zarr::v3
+std::optional<std::uint64_t> LocalByteStore::size_if_known(const std::string& key) const {
+  struct stat st {};
+  if (::stat((root_ + "/" + key).c_str(), &st) != 0 || !S_ISREG(st.st_mode)) return std::nullopt;
+  return std::uint64_t(st.st_size);
+}
+
+}  // namespace sl

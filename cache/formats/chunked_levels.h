@@ -1,0 +1,32 @@
+// What every chunked-store source (ZarrVolumeSource, PrecomputedVolumeSource) does with whole levels:
+// read one in parallel chunk row by chunk row, derive the levels a store lacks below its coarsest one by
+// the 2x reductions MemoryVolumeSource uses (pyramid.h: mean for intensity, mode for labels), and copy a
+// clamped box out of a derived level for a brick.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/math.h"
+#include "core/volume.h"
+
+namespace sl {
+
+// Reads level voxels [first, first + n) (x fastest) into dst; throws InputError for a bad chunk.
+using ReadBox = std::function<void(ivec3 first, ivec3 n, std::byte* dst)>;
+
+// A whole level of dims/type/spacing `d` stored in chunks of `chunk` voxels, read chunk row by chunk row
+// in parallel. With `skip_unreadable`, chunk by chunk instead, and a chunk whose read throws InputError
+// is left 0 (a label scan that must not stop a render: the brick's own read reports it later).
+Volume read_chunked_level(const VolumeDesc& d, ivec3 chunk, const ReadBox& read, const std::string& origin,
+                          bool skip_unreadable = false);
+
+// Copies level voxels [first, first + n), each coordinate clamped to the dims of `v`, into dst.
+void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst);
+
+// Derived levels: 2x reductions of `base` until 1³ (mode for labels, mean otherwise).
+std::vector<Volume> derive_levels(const Volume& base, bool labels);
+
+}  // namespace sl

@@ -1,0 +1,188 @@
+// The bounds pyramid for culling (DESIGN.md §4, "metadata is a min/max pyramid"; cache/pyramid.h,
+// VolumeSource::bound_blocks): a coarse voxel bounds every level-0 voxel below it, and a coarse
+// culling block's metadata covers every level-0 voxel below its dilated box — exactly, not just
+// conservatively — for in-memory volumes and the procedural source's exact levels.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <memory>
+#include <set>
+#include <vector>
+
+#include "cache/pyramid.h"
+#include "cache/synthetic/generate.h"
+#include "cache/synthetic/procedural_neurites.h"
+#include "cache/volume_source.h"
+#include "core/rng.h"
+
+namespace sl {
+namespace {
+
+// Level-0 voxels below level-l voxels [first, end), clamped to the volume.
+void level0_box(ivec3 dims0, int level, ivec3 first, ivec3 end, ivec3& lo, ivec3& hi) {
+  lo = first * (1 << level);
+  hi = glm::min(end * (1 << level), dims0);
+}
+
+struct Brute {
+  float min = std::numeric_limits<float>::infinity(), max = -std::numeric_limits<float>::infinity();
+  std::set<std::uint32_t> labels;
+};
+
+Brute brute(const Volume& v, const Volume* labels, ivec3 lo, ivec3 hi) {
+  Brute b;
+  for (int z = lo.z; z < hi.z; ++z)
+    for (int y = lo.y; y < hi.y; ++y)
+      for (int x = lo.x; x < hi.x; ++x) {
+        b.min = std::min(b.min, v.value(x, y, z));
+        b.max = std::max(b.max, v.value(x, y, z));
+        if (labels) b.labels.insert(labels->label(x, y, z));
+      }
+  return b;
+}
+
+std::shared_ptr<Volume> random_volume(ivec3 dims, VoxelType t, std::uint32_t seed, std::uint32_t range) {
+  auto v = std::make_shared<Volume>(VolumeDesc{dims, vec3(1.0f), t});
+  SplitMix64 rng(seed);
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x) {
+        // Mostly background, like segmented data: long runs, a few values.
+        const std::uint32_t r = std::uint32_t(rng.next() >> 32);
+        v->set(x, y, z, (r & 7u) == 0 ? float(1 + (r >> 8) % range) : 0.0f);
+      }
+  return v;
+}
+
+TEST(BoundsPyramid, MinMaxAndLabelSetsBoundEveryLevelZeroVoxel) {
+  const ivec3 dims(37, 20, 11);  // odd edges: the last voxel of a level covers what exists
+  const auto v = random_volume(dims, VoxelType::U16, 3, 60000);
+  const auto lab = random_volume(dims, VoxelType::U16, 4, 9);
+  Volume lo = *v, hi = *v;
+  LabelSetLevel sets;
+  for (int l = 1; l <= 4; ++l) {
+    SCOPED_TRACE("level " + std::to_string(l));
+    VolumeDesc d = lo.desc();
+    d.dims = (d.dims + 1) / 2;
+    Volume nlo(d), nhi(d);
+    reduce_min(VoxelType::U16, lo.data(), lo.dims(), nlo.data(), 0, d.dims.z);
+    reduce_max(VoxelType::U16, hi.data(), hi.dims(), nhi.data(), 0, d.dims.z);
+    sets = l == 1 ? reduce_label_sets(*lab) : reduce_label_sets(sets);
+    lo = std::move(nlo);
+    hi = std::move(nhi);
+    ASSERT_EQ(sets.sets.dims(), d.dims);
+    for (int z = 0; z < d.dims.z; ++z)
+      for (int y = 0; y < d.dims.y; ++y)
+        for (int x = 0; x < d.dims.x; ++x) {
+          ivec3 a, b;
+          level0_box(dims, l, ivec3(x, y, z), ivec3(x, y, z) + 1, a, b);
+          const Brute want = brute(*v, lab.get(), a, b);
+          ASSERT_EQ(lo.value(x, y, z), want.min);
+          ASSERT_EQ(hi.value(x, y, z), want.max);
+          const auto s = sets.set(sets.sets.as<std::uint32_t>()[sets.sets.view().index(x, y, z)]);
+          ASSERT_EQ(std::vector<std::uint32_t>(s.begin(), s.end()),
+                    std::vector<std::uint32_t>(want.labels.begin(), want.labels.end()));
+        }
+  }
+  EXPECT_LT(sets.offsets.size() - 1, std::size_t(sets.sets.desc().voxel_count()) + 1) << "sets are interned";
+}
+
+TEST(BoundsPyramid, FloatNanPropagates) {
+  auto v = std::make_shared<Volume>(VolumeDesc{ivec3(4, 4, 4), vec3(1.0f), VoxelType::F32});
+  v->set(3, 0, 0, std::numeric_limits<float>::quiet_NaN());
+  VolumeDesc d = v->desc();
+  d.dims = ivec3(2);
+  Volume lo(d), hi(d);
+  reduce_min(VoxelType::F32, v->data(), v->dims(), lo.data(), 0, 2);
+  reduce_max(VoxelType::F32, v->data(), v->dims(), hi.data(), 0, 2);
+  EXPECT_TRUE(std::isnan(lo.value(1, 0, 0)) && std::isnan(hi.value(1, 0, 0)));
+  EXPECT_EQ(lo.value(0, 0, 0), 0.0f);
+  // Block metadata over a NaN bound is the conservative "anything".
+  const BlockMetadata m = compute_box_metadata(lo.view(), hi.view(), nullptr, ivec3(0), ivec3(2));
+  EXPECT_EQ(m.min, -std::numeric_limits<float>::infinity());
+  EXPECT_EQ(m.max, std::numeric_limits<float>::infinity());
+}
+
+// Every coarse culling block of every level: the bounds equal the brute force over the level-0
+// voxels below its dilated box, and contain the metadata of the level's own (mean) voxels.
+TEST(BoundsPyramid, MemorySourceBoundsEveryCoarseBlockExactly) {
+  const ivec3 dims(70, 45, 33);
+  const auto v = random_volume(dims, VoxelType::U8, 5, 250);
+  const auto lab = random_volume(dims, VoxelType::U32, 6, 40);
+  const MemoryVolumeSource src(v, lab, "random");
+  EXPECT_GT(src.bounds_bytes(), 0u);
+  const BrickLayout layout = BrickLayout::make(v->desc(), 8, "random");
+  const int block = 4;
+  for (int l = 1; l < layout.levels; ++l) {
+    SCOPED_TRACE("level " + std::to_string(l));
+    const ivec3 ld = layout.dims(l), nb = (ld + block - 1) / block;
+    std::vector<ivec3> blocks;
+    for (int z = 0; z < nb.z; ++z)
+      for (int y = 0; y < nb.y; ++y)
+        for (int x = 0; x < nb.x; ++x) blocks.push_back(ivec3(x, y, z));
+    std::vector<BlockMetadata> out(blocks.size());
+    ASSERT_TRUE(src.bound_blocks(layout, l, block, blocks, out));
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      ivec3 f, e, a, b;
+      dilated_block(ld, blocks[i] * block, block, f, e);
+      level0_box(dims, l, f, e, a, b);
+      const Brute want = brute(*v, lab.get(), a, b);
+      ASSERT_TRUE(out[i].computed && out[i].has_labels);
+      ASSERT_EQ(out[i].min, want.min);
+      ASSERT_EQ(out[i].max, want.max);
+      ASSERT_EQ(out[i].labels, std::vector<std::uint32_t>(want.labels.begin(), want.labels.end()));
+      const VolumeView own_labels = src.label_level(l)->view();
+      const BlockMetadata own =
+          compute_block_metadata(src.level(l).view(), &own_labels, ivec3(0), ld, blocks[i] * block, block);
+      EXPECT_LE(out[i].min, own.min);
+      EXPECT_GE(out[i].max, own.max);
+      EXPECT_TRUE(std::includes(out[i].labels.begin(), out[i].labels.end(), own.labels.begin(), own.labels.end()));
+    }
+  }
+}
+
+// Exact levels: the bounds of the level-0 voxels the procedural source synthesises; splatted
+// levels: the whole u8 range, labels not listed (no culling by labels there).
+TEST(BoundsPyramid, ProceduralSourceBoundsItsLevels) {
+  const ProceduralNeuritesSource src(ivec3(160, 96, 80), 7);
+  const BrickLayout layout = BrickLayout::make(src.desc(), 8, src.name());
+  const int block = 8;
+  const std::vector<ivec3> blocks = {ivec3(0, 0, 0), ivec3(1, 0, 1), ivec3(2, 1, 1)};
+  bool tubes = false;
+  for (int l = 1; l < layout.levels; ++l) {
+    SCOPED_TRACE("level " + std::to_string(l));
+    const ivec3 ld = layout.dims(l);
+    std::vector<ivec3> inside;
+    for (const ivec3 c : blocks) {
+      if (glm::all(glm::lessThan(c * block, ld))) inside.push_back(c);
+    }
+    std::vector<BlockMetadata> out(inside.size());
+    ASSERT_TRUE(src.bound_blocks(layout, l, block, inside, out));
+    for (std::size_t i = 0; i < inside.size(); ++i) {
+      ASSERT_TRUE(out[i].computed);
+      if (ProceduralNeuritesSource::method(l) != ProceduralNeuritesSource::Method::Exact) {
+        EXPECT_EQ(out[i].min, 0.0f);
+        EXPECT_EQ(out[i].max, 255.0f);
+        EXPECT_FALSE(out[i].has_labels);
+        continue;
+      }
+      ivec3 f, e, a, b;
+      dilated_block(ld, inside[i] * block, block, f, e);
+      level0_box(src.desc().dims, l, f, e, a, b);
+      const ivec3 n = b - a;
+      Volume v0(VolumeDesc{n, vec3(1.0f), VoxelType::U8}), l0(VolumeDesc{n, vec3(1.0f), VoxelType::U32});
+      src.synthesize(0, a, n, v0.as<std::uint8_t>(), l0.as<std::uint32_t>());
+      const Brute want = brute(v0, &l0, ivec3(0), n);
+      EXPECT_EQ(out[i].min, want.min);
+      EXPECT_EQ(out[i].max, want.max);
+      EXPECT_EQ(out[i].labels, std::vector<std::uint32_t>(want.labels.begin(), want.labels.end()));
+      tubes = tubes || want.max > 0.0f;
+    }
+  }
+  EXPECT_TRUE(tubes) << "blocks without a tube test nothing";
+}
+
+}  // namespace
+}  // namespace sl
