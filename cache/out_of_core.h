@@ -64,6 +64,8 @@ class OutOfCoreRenderer {
   Frame render(const OutOfCoreScene& scene, const RenderSettings& settings);
 
   bool converged() const { return converged_; }
+  // Quarter-octave steps by which cache pressure coarsens the level of detail now (0: none; --lod N: 0).
+  int pressure() const { return pressure_; }
   std::uint32_t frame() const { return frame_; }
   const OccupancyTree& tree() const { return tree_; }
   const BrickLayout& layout() const { return layout_; }

@@ -81,7 +81,8 @@ TEST(ParallelReduce, SumsAndMaximaAreExactForAnyThreadCount) {
 }
 
 TEST(ParallelForTiles, TilesCoverEveryPixelOnceAndAreAtMostTheTileSize) {
-  for (const auto& [w, h] : {std::pair{1, 1}, std::pair{16, 16}, std::pair{17, 33}, std::pair{100, 7}}) {
+  for (const auto& size : {std::pair{1, 1}, std::pair{16, 16}, std::pair{17, 33}, std::pair{100, 7}}) {
+    const int w = size.first, h = size.second;  // not a structured binding: clang 14 cannot capture those
     std::vector<std::atomic<int>> px(std::size_t(w) * std::size_t(h));
     parallel_for_tiles(w, h, [&](int x0, int y0, int x1, int y1) {
       ASSERT_LE(x1 - x0, kTileSize);
