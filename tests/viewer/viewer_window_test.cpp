@@ -57,7 +57,26 @@ RunResult run_with_display(const std::string& display, const std::string& args) 
 
 class ViewerWindow : public ::testing::Test {
  protected:
-  static void SetUpTestSuite() {
+  static void SetUpTestSuite() { start(); }
+
+  // Runs the viewer on this suite's Xvfb. A window that cannot open because the display is not
+  // reachable (seen once in a CI run, on :0 beside other tests' servers; the cause is not known) is
+  // retried once on a fresh server, saying so on stderr; every other failure is the test's.
+  static RunResult run_view(const std::string& args) {
+    RunResult r = run_with_display(display_, args);
+    if (r.exit_code != 0 && r.output.find("cannot open a window") != std::string::npos) {
+      const bool alive = pid_ > 0 && waitpid(pid_, nullptr, WNOHANG) == 0;
+      std::fprintf(stderr, "viewer_window_test: display %s not reachable (its Xvfb %s); retrying once on a new server\n",
+                   display_.c_str(), alive ? "still runs" : "has exited");
+      if (!alive) pid_ = -1;
+      stop();
+      start();
+      if (start_error_.empty() && skip_reason_.empty()) r = run_with_display(display_, args);
+    }
+    return r;
+  }
+
+  static void start() {
 #ifndef SL_HAVE_VIEWER
     skip_reason_ = "this build has no viewer (GLFW, OpenGL or Dear ImGui not found at configure time)";
     return;
@@ -147,7 +166,7 @@ std::size_t distinct_colours(const Image& img, int x0, int x1) {
 TEST_F(ViewerWindow, RendersTheBuiltInDataSetAndSavesANonBlankScreenshot) {
   const auto dir = scratch_dir();
   const std::string shot = (dir / "view.png").string();
-  const RunResult r = run_with_display(display_, "view " + kSmall + " --screenshot " + shot + " --frames 3");
+  const RunResult r = run_view("view " + kSmall + " --screenshot " + shot + " --frames 3");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("view: 3 frames"), std::string::npos) << r.output;
   const Image img = read_png(shot);
@@ -167,7 +186,7 @@ TEST_F(ViewerWindow, DepthComplexityViewsOfOctreeAndSparseLeapDiffer) {
   for (int i = 0; i < 2; ++i) {
     const std::string shot = (dir / (std::string(methods[i]) + ".png")).string();
     // --no-stats: the overlay would cover part of the canvas compared here.
-    const RunResult r = run_with_display(display_, "view " + kSmall + " --method " + methods[i] +
+    const RunResult r = run_view("view " + kSmall + " --method " + methods[i] +
                                                        " --view depth-complexity --no-stats --screenshot " + shot);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     img[i] = read_png(shot);
@@ -183,7 +202,7 @@ TEST_F(ViewerWindow, DepthComplexityViewsOfOctreeAndSparseLeapDiffer) {
 }
 
 TEST_F(ViewerWindow, ScriptedFramesWithoutScreenshotReportFrameTimes) {
-  const RunResult r = run_with_display(display_, "view " + kSmall + " --frames 4 --spin 10 --method octree");
+  const RunResult r = run_view("view " + kSmall + " --frames 4 --spin 10 --method octree");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("view: 4 frames"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("octree"), std::string::npos) << r.output;
@@ -193,7 +212,7 @@ TEST_F(ViewerWindow, OutOfCoreViewStreamsBricksAndConverges) {
   const auto dir = scratch_dir();
   const std::string shot = (dir / "ooc.png").string();
   const RunResult r =
-      run_with_display(display_, "view " + kSmall + " --cache-mb 16 --brick 16 --frames 8 --screenshot " + shot);
+      run_view("view " + kSmall + " --cache-mb 16 --brick 16 --frames 8 --screenshot " + shot);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("converged at frame"), std::string::npos) << r.output;
   const Image img = read_png(shot);
@@ -208,8 +227,8 @@ TEST_F(ViewerWindow, TheStillFrameAfterCoarseFramesIsTheRenderImage) {
   const std::string path_file = (dir / "orbit.json").string();
   write_text(path_file, camera_path_to_json(orbit_path(vec3(64.0f), 5)));
   const std::string shot = (dir / "still.png").string();
-  const RunResult r = run_with_display(
-      display_, "view " + kSmall + " --path " + path_file + " --frame-budget-ms 1 --no-stats --screenshot " + shot);
+  const RunResult r = run_view(
+      "view " + kSmall + " --path " + path_file + " --frame-budget-ms 1 --no-stats --screenshot " + shot);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("view: 5 frames"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("frames/s, pixels 1/"), std::string::npos) << r.output;  // the moving frames were coarse
@@ -234,7 +253,7 @@ TEST_F(ViewerWindow, TheStillFrameAfterCoarseFramesIsTheRenderImage) {
 }
 
 TEST_F(ViewerWindow, ProgressiveOffRendersEveryFrameAtFullResolution) {
-  const RunResult r = run_with_display(display_, "view " + kSmall + " --frames 4 --spin 10 --progressive off");
+  const RunResult r = run_view("view " + kSmall + " --frames 4 --spin 10 --progressive off");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("view: 4 frames"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("pixels 1;"), std::string::npos) << r.output;
@@ -249,7 +268,7 @@ TEST_F(ViewerWindow, GlListsShowTheCpuListsImage) {
   const char* lists[2] = {"cpu", "gl"};
   for (int i = 0; i < 2; ++i) {
     const std::string shot = (dir / (std::string(lists[i]) + ".png")).string();
-    const RunResult r = run_with_display(display_, "view " + kSmall + " --lists " + lists[i] +
+    const RunResult r = run_view("view " + kSmall + " --lists " + lists[i] +
                                                        " --no-stats --frames 2 --screenshot " + shot);
     if (i == 1 && r.exit_code != 0 && r.output.find("--lists") != std::string::npos) {
       GTEST_SKIP() << "no GL list builder here: " << r.output;
