@@ -73,4 +73,21 @@ std::vector<Volume> derive_levels(const Volume& base, bool labels) {
   return out;
 }
 
+void read_chunked_brick(const BrickLayout& layout, BrickId id, int stored_levels, VoxelType type,
+                        const ReadLevelBox& read, const std::vector<Volume>& derived, std::span<std::byte> out) {
+  const int l = id.level();
+  ivec3 first, n;
+  brick_read_box(layout, id, first, n);
+  const int elem = voxel_size(type);
+  std::vector<std::byte> box(std::size_t(n.x) * std::size_t(n.y) * std::size_t(n.z) * std::size_t(elem));
+  if (l < stored_levels) {
+    read(l, first, n, box.data());
+  } else {
+    const std::size_t i = std::size_t(l - stored_levels);
+    SL_CHECK(i < derived.size());  // derived levels reach 1³, and the layout never goes further
+    copy_clamped(derived[i], first, n, box.data());
+  }
+  fill_brick(layout, id, box.data(), first, n, elem, out);
+}
+
 }  // namespace sl

@@ -6,8 +6,11 @@
 
 #include <cstddef>
 #include <functional>
+#include <span>
 #include <string>
 #include <vector>
+
+#include "cache/brick.h"
 
 #include "core/math.h"
 #include "core/volume.h"
@@ -28,5 +31,14 @@ void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst);
 
 // Derived levels: 2x reductions of `base` until 1³ (mode for labels, mean otherwise).
 std::vector<Volume> derive_levels(const Volume& base, bool labels);
+
+// Reads level voxels [first, first + n) of a store's own level into dst (x fastest).
+using ReadLevelBox = std::function<void(int level, ivec3 first, ivec3 n, std::byte* dst)>;
+
+// One brick of a chunked store with `stored_levels` levels of voxel type `type`: its read box from the
+// store's level through `read`, or beyond the stored levels from `derived` (derive_levels), written
+// into `out` with the brick's apron (pyramid.h: brick_read_box, fill_brick).
+void read_chunked_brick(const BrickLayout& layout, BrickId id, int stored_levels, VoxelType type,
+                        const ReadLevelBox& read, const std::vector<Volume>& derived, std::span<std::byte> out);
 
 }  // namespace sl

@@ -84,21 +84,9 @@ ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& l
 void ZarrVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                                   std::span<std::byte> out_labels) const {
   check_request(layout, id, out_intensity, out_labels);
-  const int l = id.level();
-  ivec3 first, n;
-  brick_read_box(layout, id, first, n);
-  std::vector<std::byte> box;
   const auto one = [&](const zarr::ArrayReader& r, const std::vector<Volume>& derived, std::span<std::byte> out) {
-    const int elem = voxel_size(r.type());
-    box.resize(std::size_t(n.x) * std::size_t(n.y) * std::size_t(n.z) * std::size_t(elem));
-    if (l < r.levels()) {
-      r.read_box(l, first, n, box.data());
-    } else {
-      const std::size_t i = std::size_t(l - r.levels());
-      SL_CHECK(i < derived.size());  // derived levels reach 1³, and the layout never goes further
-      copy_clamped(derived[i], first, n, box.data());
-    }
-    fill_brick(layout, id, box.data(), first, n, elem, out);
+    const ReadLevelBox read = [&](int l, ivec3 first, ivec3 n, std::byte* dst) { r.read_box(l, first, n, dst); };
+    read_chunked_brick(layout, id, r.levels(), r.type(), read, derived, out);
   };
   one(*image_, derived_, out_intensity);
   if (!out_labels.empty()) one(*labels_, derived_labels_, out_labels);
