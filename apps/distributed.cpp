@@ -15,6 +15,7 @@
 #include "cache/work_estimate.h"
 #include "core/error.h"
 #include "core/process_memory.h"
+#include "core/render_mode.h"
 
 namespace sl::app {
 
@@ -192,11 +193,14 @@ Frame Distributed::composite(Frame local, const ViewPoint& view) {
   IceTDouble bytes = 0;
   icetGetDoublev(ICET_BYTES_SENT, &bytes);
 
-  // The extra channels: summed counts, and the nearest iso hit (no hit: -1).
+  // The extra channels: summed counts, and the nearest iso hit (no hit: -1). The DVR and labels depth
+  // (where the composite's opacity reaches 0.5) does not follow from the ranks' own depths, and is
+  // left out rather than approximated (the same on every rank: the mode is).
   Frame out;
   if (root()) out = Frame{Image(w, h), local.stats};
   for (auto& [name, ch] : local.image.channels) {
     const bool depth = name == "depth";
+    if (depth && local.stats.mode != to_string(RenderMode::Iso)) continue;
     if (depth) {
       for (float& d : ch) d = d < 0.0f ? INFINITY : d;
     }

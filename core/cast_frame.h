@@ -47,8 +47,8 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
   Image& img = frame.image;
   auto& samples_ch = img.channel("samples");
   auto& dc_ch = img.channel("depth_complexity");
-  float* depth_ch = nullptr;  // iso: hit distance t per pixel, -1 where the ray finds no surface
-  if (caster.p.mode == RenderMode::Iso) {
+  float* depth_ch = nullptr;  // the depth (render_mode.h: writes_depth) per pixel, -1 where there is none
+  if (writes_depth(caster.p.mode)) {
     auto& d = img.channel("depth");
     std::fill(d.begin(), d.end(), -1.0f);
     depth_ch = d.data();

@@ -92,7 +92,7 @@ struct RayAccum {
   vec3 color{0.0f};
   float alpha = 0.0f;
   float mip_max = 0.0f;
-  float hit_t = -1.0f;               // iso: ray parameter of the surface hit (-1: none)
+  float hit_t = -1.0f;  // depth (render_mode.h): iso, t of the surface hit; DVR, labels: t where alpha reaches 0.5
   std::uint32_t samples = 0;         // samples taken
   std::uint32_t useful_samples = 0;  // samples that contributed (opacity > 0)
   int prev_k = -2;                   // index of the previous sample taken (iso bracketing)
@@ -224,7 +224,7 @@ struct RayCaster {
         if (!visible_label(pos, ctx)) break;
         vec3 rgb = p.tf.rgb_at(tc);
         if (p.lighting.enabled) rgb = blinn_phong(rgb, volume.gradient(pos, p.spacing, ctx), ray.dir, p.lighting);
-        if (!composite(rgb, a, acc)) return false;
+        if (!composite(rgb, a, acc, t)) return false;
         break;
       }
       case RenderMode::Labels: {
@@ -232,7 +232,7 @@ struct RayCaster {
         if (!(a > 0.0f)) break;
         const std::uint32_t id = volume.label_at(pos, ctx);
         if (id == 0u || !p.labels.enabled(id)) break;
-        if (!composite(label_color(id), a, acc)) return false;
+        if (!composite(label_color(id), a, acc, t)) return false;
         break;
       }
       case RenderMode::Mip: {
@@ -255,13 +255,15 @@ struct RayCaster {
   }
 
  public:
-  // Front-to-back "over" of one premultiplied contribution (DESIGN.md §8); false once early ray
-  // termination ends the ray.
-  SL_HOST_DEVICE SL_INLINE bool composite(const vec3& rgb, float a, RayAccum& acc) const {
+  // Front-to-back "over" of one premultiplied contribution at ray parameter t (DESIGN.md §8), which is
+  // the depth once the opacity first reaches kDepthOpacity; false once early ray termination ends the
+  // ray.
+  SL_HOST_DEVICE SL_INLINE bool composite(const vec3& rgb, float a, RayAccum& acc, float t) const {
     const float w = (1.0f - acc.alpha) * a;
     acc.color += w * rgb;
     acc.alpha += w;
     ++acc.useful_samples;
+    if (acc.hit_t < 0.0f && acc.alpha >= kDepthOpacity) acc.hit_t = t;
     if (p.ert && acc.alpha >= p.ert_threshold) {
       acc.done = true;
       return false;

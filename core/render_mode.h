@@ -16,6 +16,12 @@ enum class SkipMethod : std::uint8_t { None = 0, BBox = 1, Octree = 2, SparseLea
 // bisection (misses a surface crossed twice within one step).
 enum class IsoMethod : std::uint8_t { Exact = 0, Sampled = 1 };
 
+// Modes whose frames carry a "depth" channel: iso, the ray parameter t of the surface hit; DVR and
+// labels, the t at which the accumulated opacity first reaches kDepthOpacity (-1 where it never does).
+// MIP has no depth.
+inline constexpr float kDepthOpacity = 0.5f;
+constexpr bool writes_depth(RenderMode m) { return m != RenderMode::Mip; }
+
 // Parse/print the command-line names; parse throws InputError(option, reason).
 RenderMode parse_render_mode(const std::string& s);
 SkipMethod parse_skip_method(const std::string& s);

@@ -30,7 +30,7 @@ struct FrameOutputs {
   vec4* rgba = nullptr;
   float* samples = nullptr;
   float* dc = nullptr;     // depth complexity
-  float* depth = nullptr;  // iso only: hit t, -1 where no surface
+  float* depth = nullptr;  // render_mode.h's depth (not MIP), -1 where there is none
   DeviceCounters* counters = nullptr;
 };
 

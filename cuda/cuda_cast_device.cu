@@ -125,10 +125,10 @@ class CudaCastDevice final : public CastDevice {
     CastParams p = r.params;
     SkipInputs skip = r.skip;
     inputs_.upload(p, skip, compute_);  // transfer-function table, enabled labels, segment lists
-    const bool iso = p.mode == RenderMode::Iso;
-    const FrameOutputs out = frame_.prepare(r.gen.width, r.gen.height, iso, compute_);
+    const bool depth = writes_depth(p.mode);
+    const FrameOutputs out = frame_.prepare(r.gen.width, r.gen.height, depth, compute_);
     dispatch_voxel(config_.voxel_type, [&](auto tag) { launch<decltype(tag)>(r, p, skip, out); });
-    frame_.finish(frame, skip.method, iso, compute_);  // synchronises the compute stream
+    frame_.finish(frame, skip.method, depth, compute_);  // synchronises the compute stream
     // Copied back once per frame: the miss list, the usage stamps and the shortfall counters.
     std::uint32_t claimed = 0;  // ids claimed (may exceed the capacity: the rest were dropped)
     miss_counters_.download(&claimed, 1, compute_);

@@ -35,13 +35,13 @@ class InCoreCaster {
     Timer timer;
     upload_volume(scene);
     inputs_.upload(p, skip, stream_);  // transfer-function table, enabled labels, skipping structures
-    const bool iso = s.mode == RenderMode::Iso;
-    const FrameOutputs out = frame_.prepare(s.width, s.height, iso, stream_);
+    const bool depth = writes_depth(s.mode);
+    const FrameOutputs out = frame_.prepare(s.width, s.height, depth, stream_);
     const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
     const Box3 vbox{vec3(0.0f), scene.volume->desc().extent()};
     dispatch_voxel(scene.volume->type(),
                    [&](auto tag) { launch<decltype(tag)>(scene, p, gen, vbox, skip, out); });
-    frame_.finish(frame, skip.method, iso, stream_);
+    frame_.finish(frame, skip.method, depth, stream_);
     frame.stats.time_ms.raycast = timer.ms();
     frame.stats.backend = "cuda";
   }

@@ -1,4 +1,4 @@
-// The ray caster against closed forms: Beer–Lambert through a slab, isosurface depth on a sphere,
+// The ray caster against closed forms: Beer–Lambert through a slab and its DVR depth, isosurface depth on a sphere,
 // MIP, and thread-count determinism (DESIGN.md §8 conventions).
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
@@ -48,6 +48,44 @@ TEST(RayCast, ConstantSlabMatchesBeerLambert) {
     EXPECT_NEAR(c.z, 1.0f * expected_alpha, 2e-5f);
     EXPECT_EQ(f.image.channels.at("samples")[4 * 8 + 4], 64.0f / step);
   }
+}
+
+TEST(RayCast, DvrDepthIsTheFirstSampleWhereTheOpacityReachesAHalf) {
+  VolumeDesc d;
+  d.dims = ivec3(8, 8, 64);
+  d.type = VoxelType::U8;
+  Volume v(d);
+  for (int z = 0; z < 64; ++z)
+    for (int y = 0; y < 8; ++y)
+      for (int x = 0; x < 8; ++x) v.set(x, y, z, 100);
+  for (const float a : {0.05f, 0.2f, 0.005f}) {
+    TransferFunction tf({{0.0f, {1, 1, 1, a}}, {255.0f, {1, 1, 1, a}}});
+    for (const float step : {0.5f, 0.25f, 1.0f}) {
+      Scene scene{&v, nullptr, &tf, nullptr, ortho_down_z(d.extent(), 8.0f)};
+      RenderSettings s;
+      s.width = s.height = 8;
+      s.method = SkipMethod::None;
+      s.step = step;
+      InCoreRenderer r;
+      const Frame f = r.render(scene, s);
+      ASSERT_TRUE(f.image.channels.count("depth"));
+      // After samples 0..k the opacity is 1 − (1 − a)^((k+1)·step): it reaches 0.5 at the first k with
+      // (k+1)·step ≥ L = log 0.5 / log(1 − a); sample k is at t = 10 + k·step (the eye is 10 above).
+      const double L = std::log(0.5) / std::log(1.0 - double(a));
+      const double k = std::ceil(L / step) - 1.0;
+      const float expected = k * step < 64.0 ? float(10.0 + k * step) : -1.0f;  // a = 0.005: never (0.27)
+      for (int i : {0, 27, 63}) {
+        EXPECT_NEAR(f.image.channels.at("depth")[i], expected, 1e-4f) << "a " << a << ", step " << step;
+      }
+    }
+  }
+  // MIP has no depth.
+  TransferFunction tf({{0.0f, {1, 1, 1, 1}}, {255.0f, {1, 1, 1, 1}}});
+  RenderSettings s;
+  s.width = s.height = 8;
+  s.mode = RenderMode::Mip;
+  InCoreRenderer r;
+  EXPECT_FALSE(r.render(Scene{&v, nullptr, &tf, nullptr, ortho_down_z(d.extent(), 8.0f)}, s).image.channels.count("depth"));
 }
 
 TEST(RayCast, AnisotropicSpacingUsesMinSpacingForOpacityCorrection) {
