@@ -423,6 +423,12 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
                                      to_string(s.method));
   }
   if (s.block != block_) throw InputError("--block", "changed after the out-of-core renderer was created");
+  if (s.filter != Filter::Linear && s.method != SkipMethod::None) {
+    // The bricks' one-voxel apron bounds each block's metadata to the trilinear footprint.
+    throw InputError("--filter", std::string("out of core, ") + to_string(s.filter) +
+                                     " reconstruction runs with --method none only (the bricks' one-voxel apron "
+                                     "cannot bound a B-spline's footprint for culling)");
+  }
   const VolumeDesc& d = source_->desc();
   Frame frame = begin_frame(s);
   Stats& st = frame.stats;

@@ -120,6 +120,32 @@ BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const Volum
   return t;
 }
 
+void widen_ranges_to_neighbours(BlockMetadataTable& table) {
+  const BlockGrid& g = table.grid;
+  // Separable: a min/max over {-1, 0, +1} along x, then y, then z is the min/max over the 27 blocks.
+  for (int a = 0; a < 3; ++a) {
+    std::vector<float> lo(table.blocks.size()), hi(table.blocks.size());
+    for (std::size_t i = 0; i < table.blocks.size(); ++i) {
+      lo[i] = table.blocks[i].min;
+      hi[i] = table.blocks[i].max;
+    }
+    parallel_for(std::size_t(0), table.blocks.size(), [&](std::size_t i) {
+      BlockMetadata& m = table.blocks[i];
+      if (!m.computed) return;
+      const ivec3 b = g.block_coord(i);
+      for (int d = -1; d <= 1; d += 2) {
+        ivec3 nb = b;
+        nb[a] += d;
+        if (nb[a] < 0 || nb[a] >= g.blocks[a]) continue;
+        const std::size_t j = g.block_index(nb);
+        if (!table.blocks[j].computed) continue;
+        m.min = std::min(m.min, lo[j]);
+        m.max = std::max(m.max, hi[j]);
+      }
+    });
+  }
+}
+
 std::uint64_t block_metadata_computations() { return g_computations.load(); }
 
 }  // namespace sl

@@ -111,6 +111,13 @@ struct BlockMetadataTable {
 BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const VolumeView& intensity,
                                               const VolumeView* labels);
 
+// Widens every block's intensity range to the union of the ranges of its 26 neighbours and itself, for
+// a reconstruction filter wider than trilinear (the B-splines of core/bspline.h read one voxel more on
+// each side than the one-voxel dilation covers; a neighbouring block, at least one voxel deep, dilated by
+// one, covers that voxel). The label sets stay: labels are looked up nearest-voxel whatever the filter.
+// Blocks not yet computed are left as they are (in core every block is computed).
+void widen_ranges_to_neighbours(BlockMetadataTable& table);
+
 // Number of compute_block_metadata calls so far in this process, in core and out of core (tests prove
 // that re-culling for a transfer-function or label change does not recompute metadata).
 std::uint64_t block_metadata_computations();

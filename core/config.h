@@ -21,6 +21,20 @@
 #define SL_INLINE inline
 #endif
 
+// SL_DEVICE_NOINLINE keeps a large, rarely taken path (the B-spline filters, lit labels) out of line in
+// the kernels, and SL_DEVICE_NO_UNROLL keeps a loop over sampler calls rolled there: inlined and
+// unrolled into every kernel they multiplied ptxas's time several-fold. The host compiler decides alone.
+#if defined(__CUDACC__)
+#define SL_DEVICE_NOINLINE __noinline__
+#else
+#define SL_DEVICE_NOINLINE
+#endif
+#if defined(__CUDA_ARCH__)
+#define SL_DEVICE_NO_UNROLL _Pragma("unroll 1")
+#else
+#define SL_DEVICE_NO_UNROLL
+#endif
+
 #if !defined(__CUDA_ARCH__)
 #include <cassert>
 #include <stdexcept>

@@ -39,11 +39,14 @@ CastParams make_cast_params(const RenderSettings& s, const VolumeDesc& d, const 
   p.inv_dt = 1.0f / p.dt;
   p.iso = s.iso;
   p.iso_method = s.iso_method;
+  p.filter = s.filter;
   p.ert = s.ert;
   p.lighting = s.lighting;
-  p.lighting.enabled = s.lighting.enabled && s.mode == RenderMode::Dvr;
-  // The guard: 1e-3 of the transfer function's value range per voxel of the finest level.
-  p.lighting.min_gradient = 1e-3f * (tf.vmax() - tf.vmin()) / d.min_spacing();
+  p.lighting.enabled = s.lighting.enabled && (s.mode == RenderMode::Dvr || s.mode == RenderMode::Labels);
+  // The guard: 1e-3 of the transfer function's value range per voxel of the finest level (labels:
+  // 1e-3 of the mask's range 1, per voxel).
+  const float range = s.mode == RenderMode::Labels ? 1.0f : tf.vmax() - tf.vmin();
+  p.lighting.min_gradient = 1e-3f * range / d.min_spacing();
   p.spacing = d.spacing;
   p.tf = tf.view(step);  // α' = 1 − (1 − α)^(dt / min spacing), and dt / min spacing = step
   p.label_mask = enabled != nullptr && label_volume && s.mode != RenderMode::Labels;

@@ -21,8 +21,9 @@ struct RenderSettings {
   float step = 0.5f;       // sample distance in units of the smallest voxel spacing
   float iso = 128.0f;
   IsoMethod iso_method = IsoMethod::Exact;  // iso mode: exact per-cell roots or sampled bisection
+  Filter filter = Filter::Linear;           // reconstruction: trilinear or a B-spline (--filter)
   bool ert = false;
-  Lighting lighting;       // dvr: Blinn–Phong with a headlight (--shade; VTK's parameters and defaults)
+  Lighting lighting;       // dvr, labels: Blinn–Phong with a headlight (--shade; VTK's parameters and defaults)
   int block = 16;          // culling block edge in voxels
   int fine_cell = 4;       // fine occupancy cell edge in voxels inside SparseLeap segments (0: off)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)

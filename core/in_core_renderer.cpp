@@ -20,6 +20,7 @@ struct InCoreRenderer::State {
   const Volume* volume = nullptr;
   const Volume* labels = nullptr;
   int block = 0;
+  Filter filter = Filter::Linear;  // the metadata's ranges are widened for a B-spline filter
   std::optional<BlockMetadataTable> metadata;
   std::vector<OccupancyClass> classes;
   std::optional<OccupancyTree> tree;
@@ -27,6 +28,7 @@ struct InCoreRenderer::State {
   // Fine occupancy inside SparseLeap segments: cell metadata per volume and cell size (like the
   // blocks'), bits per culling input (re-derived from the cached metadata when those change).
   int fine_cell = 0;
+  Filter fine_filter = Filter::Linear;
   std::optional<BlockMetadataTable> fine_metadata;
   // The bits of the last two culling inputs: `bench` re-renders every view with its opacity scaled
   // (lists reused) and so alternates between two transfer functions; re-deriving the bits at each
@@ -85,15 +87,18 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   if (s.method == SkipMethod::None) return in;
   State& S = *state_;
   Timer t;
-  if (!S.metadata || S.volume != scene.volume || S.labels != scene.labels || S.block != s.block) {
+  if (!S.metadata || S.volume != scene.volume || S.labels != scene.labels || S.block != s.block ||
+      S.filter != s.filter) {
     S = State{};
     S.volume = scene.volume;
     S.labels = scene.labels;
     S.block = s.block;
+    S.filter = s.filter;
     const BlockGrid grid = make_block_grid(scene.volume->dims(), scene.volume->desc().spacing, s.block);
     VolumeView lv;
     if (scene.labels) lv = scene.labels->view();
     S.metadata = compute_all_block_metadata(grid, scene.volume->view(), scene.labels ? &lv : nullptr);
+    if (s.filter != Filter::Linear) widen_ranges_to_neighbours(*S.metadata);
     st.metadata_computed = S.metadata->blocks.size();
   }
   st.time_ms.metadata = t.ms();
@@ -139,13 +144,15 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
                                                  Stats& st) {
   State& S = *state_;
   Timer t;
-  if (!S.fine_metadata || S.fine_cell != s.fine_cell) {
+  if (!S.fine_metadata || S.fine_cell != s.fine_cell || S.fine_filter != s.filter) {
     const BlockGrid cells = make_block_grid(scene.volume->dims(), scene.volume->desc().spacing, s.fine_cell);
     VolumeView lv;
     if (scene.labels) lv = scene.labels->view();
     S.fine_metadata = compute_all_block_metadata(cells, scene.volume->view(), scene.labels ? &lv : nullptr);
+    if (s.filter != Filter::Linear) widen_ranges_to_neighbours(*S.fine_metadata);
     st.metadata_computed += S.fine_metadata->blocks.size();
     S.fine_cell = s.fine_cell;
+    S.fine_filter = s.filter;
     S.fine[0].valid = S.fine[1].valid = false;
   }
   const std::uint64_t key = cull_key(cull);

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdint>
 
+#include "core/bspline.h"
 #include "core/config.h"
 #include "core/exact_iso.h"
 #include "core/fine_occupancy.h"
@@ -71,12 +72,13 @@ struct CastParams {
   float inv_dt = 2.0f;
   float iso = 0.5f;
   IsoMethod iso_method = IsoMethod::Exact;
+  Filter filter = Filter::Linear;  // reconstruction (core/bspline.h): trilinear or a B-spline
   bool ert = false;        // early ray termination at A >= ert_threshold
   float ert_threshold = 0.99f;
   bool label_mask = false; // a sample contributes only where its label is enabled
   vec3 spacing{1.0f};
   TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md §8)
-  Lighting lighting;       // dvr: Blinn–Phong on the gradient (core/shading.h) when enabled
+  Lighting lighting;       // dvr, labels: Blinn–Phong on the gradient (core/shading.h) when enabled
   LabelSetView labels;
   LodParams lod;
 
@@ -134,6 +136,74 @@ struct RayCaster {
     return !p.label_mask || p.labels.enabled(volume.label_at(pos, c));
   }
 
+  // The reconstruction at pos (CastParams::filter): the sampler's trilinear sample, or the B-spline
+  // from 8 of them (core/bspline.h) on the voxels of the sample's level.
+  SL_HOST_DEVICE SL_INLINE float value_at(const vec3& pos, const SampleContext& c) const {
+    if (p.filter == Filter::Linear) return volume.sample(pos, c);
+    return filtered(pos, c);
+  }
+
+  // The gradient of that reconstruction: the sampler's central difference of the trilinear samples,
+  // or the central difference of the B-spline, one voxel of the level apart.
+  SL_HOST_DEVICE vec3 gradient_at(const vec3& pos, const SampleContext& c) const {
+    if (p.filter == Filter::Linear) return volume.gradient(pos, p.spacing, c);
+    return filtered_gradient(pos, c);
+  }
+
+  // The gradient of label `id`'s mask (1 on its voxels, 0 elsewhere, trilinearly interpolated between
+  // voxel centres) at pos: the normal of the label's surface, smooth rather than staircased (lit
+  // labels mode). Central differences one voxel of the level apart.
+  SL_HOST_DEVICE SL_DEVICE_NOINLINE vec3 label_gradient(const vec3& pos, std::uint32_t id, const SampleContext& c) const {
+    const vec3 h = level_voxel(c);
+    vec3 g;
+    SL_DEVICE_NO_UNROLL
+    for (int a = 0; a < 3; ++a) {
+      vec3 d(0.0f);
+      d[a] = h[a];
+      g[a] = (label_mask(pos + d, id, h, c) - label_mask(pos - d, id, h, c)) / (2.0f * h[a]);
+    }
+    return g;
+  }
+
+ private:
+  SL_HOST_DEVICE SL_INLINE vec3 level_voxel(const SampleContext& c) const { return p.spacing * float(1 << c.level); }
+
+  SL_HOST_DEVICE SL_DEVICE_NOINLINE float filtered(const vec3& pos, const SampleContext& c) const {
+    return bspline_sample(p.filter, pos, level_voxel(c), [&](const vec3& q) { return volume.sample(q, c); });
+  }
+
+  // The B-spline's central-difference gradient, one voxel of the level apart (the order of
+  // central_difference_gradient: +h then -h per axis).
+  SL_HOST_DEVICE SL_DEVICE_NOINLINE vec3 filtered_gradient(const vec3& pos, const SampleContext& c) const {
+    const vec3 h = level_voxel(c);
+    vec3 g;
+    SL_DEVICE_NO_UNROLL
+    for (int a = 0; a < 3; ++a) {
+      vec3 d(0.0f);
+      d[a] = h[a];
+      g[a] = (filtered(pos + d, c) - filtered(pos - d, c)) / (2.0f * h[a]);
+    }
+    return g;
+  }
+
+  SL_HOST_DEVICE float label_mask(const vec3& q, std::uint32_t id, const vec3& h, const SampleContext& c) const {
+    const vec3 u = q / h - 0.5f;
+    const vec3 fl(floorf(u.x), floorf(u.y), floorf(u.z));
+    const vec3 f = u - fl;
+    float m[8];
+    SL_DEVICE_NO_UNROLL
+    for (int i = 0; i < 8; ++i) {
+      const vec3 centre = (fl + vec3(float(i & 1), float((i >> 1) & 1), float((i >> 2) & 1)) + 0.5f) * h;
+      m[i] = volume.label_at(centre, c) == id ? 1.0f : 0.0f;  // the sampler clamps to the volume
+    }
+    const float x00 = m[0] + f.x * (m[1] - m[0]), x10 = m[2] + f.x * (m[3] - m[2]);
+    const float x01 = m[4] + f.x * (m[5] - m[4]), x11 = m[6] + f.x * (m[7] - m[6]);
+    const float y0 = x00 + f.y * (x10 - x00), y1 = x01 + f.y * (x11 - x01);
+    return y0 + f.z * (y1 - y0);
+  }
+
+ public:
+
   // Samples k in [k0, k1). Returns false once the ray has terminated. `unknown`: the span's occupancy
   // is UNKNOWN (an occupancy miss for the out-of-core sampler). `fine` (optional): leave out the
   // samples that fall in its clear cells (exact: they contribute nothing; core/fine_occupancy.h).
@@ -165,7 +235,7 @@ struct RayCaster {
       // is found exactly as a method without skipping finds it.
       const float t = t_entry + float(k0 - 1) * p.dt;
       ctx.level = p.lod.level_at(t);
-      acc.prev_v = volume.sample(ray.at(t), ctx);
+      acc.prev_v = value_at(ray.at(t), ctx);
       acc.prev_k = k0 - 1;
       ++acc.samples;
     }
@@ -208,7 +278,7 @@ struct RayCaster {
     const float t = t_entry + float(k) * p.dt;
     const vec3 pos = ray.at(t);
     if (lod_varies) ctx.level = p.lod.level_at(t);
-    const float v = volume.sample(pos, ctx);
+    const float v = value_at(pos, ctx);
     ++acc.samples;
     switch (p.mode) {
       // Opacity first: the label fetch and the colour are read only for samples that can
@@ -223,7 +293,7 @@ struct RayCaster {
         }
         if (!visible_label(pos, ctx)) break;
         vec3 rgb = p.tf.rgb_at(tc);
-        if (p.lighting.enabled) rgb = blinn_phong(rgb, volume.gradient(pos, p.spacing, ctx), ray.dir, p.lighting);
+        if (p.lighting.enabled) rgb = blinn_phong(rgb, gradient_at(pos, ctx), ray.dir, p.lighting);
         if (!composite(rgb, a, acc, t)) return false;
         break;
       }
@@ -232,7 +302,9 @@ struct RayCaster {
         if (!(a > 0.0f)) break;
         const std::uint32_t id = volume.label_at(pos, ctx);
         if (id == 0u || !p.labels.enabled(id)) break;
-        if (!composite(label_color(id), a, acc, t)) return false;
+        vec3 rgb = label_color(id);
+        if (p.lighting.enabled) rgb = blinn_phong(rgb, label_gradient(pos, id, ctx), ray.dir, p.lighting);
+        if (!composite(rgb, a, acc, t)) return false;
         break;
       }
       case RenderMode::Mip: {
@@ -292,7 +364,14 @@ struct RayCaster {
     RayAccum a = acc;  // locals, as march()
     const Ray r = ray;
     const RayCaster self = *this;
-    const bool alive = self.march_exact_local(r, ta, tb, a, unknown);
+    bool alive;
+    if (self.p.filter == Filter::Linear) {
+      alive = self.march_exact_local(r, ta, tb, a, unknown);
+    } else if (self.p.filter == Filter::Quadratic) {
+      alive = self.template march_exact_bspline<2>(r, ta, tb, a, unknown);
+    } else {
+      alive = self.template march_exact_bspline<3>(r, ta, tb, a, unknown);
+    }
     acc = a;
     return alive;
   }
@@ -356,6 +435,103 @@ struct RayCaster {
     return true;
   }
 
+  // march_exact_local for the B-spline of degree D (2: tri-quadratic, 3: tri-cubic): the same walk
+  // over the filter's pieces (CellWalk with the filter's grid offset), the (D+1)^3 control points of a
+  // piece minus the iso value (those on the faces shared with the next piece carry over), the piece
+  // skipped when they all lie on one side, else the first root of its degree-3D ray polynomial.
+  template <int D>
+  SL_HOST_DEVICE SL_DEVICE_NOINLINE bool march_exact_bspline(const Ray& ray, float ta, float tb, RayAccum& acc, bool unknown) const {
+    constexpr int n = D + 1;
+    SampleContext ctx;
+    ctx.occupancy_unknown = unknown;
+    const bool lod_varies = !p.lod.constant();
+    float t = ta;
+    for (int pass = 0; pass < 2 * kMaxLodPasses && t < tb; ++pass) {
+      ctx.level = p.lod.level_at(t);
+      const vec3 h = p.spacing * float(1 << ctx.level);
+      const vec3 inv_h = 1.0f / h;
+      const float tol = 1e-6f * fminf(h.x, fminf(h.y, h.z));
+      CellWalk walk(ray, inv_h, t, bspline_grid_offset<D>());
+      CellControl<D> c;
+      const int first = bspline_first<D>();
+      SL_DEVICE_NO_UNROLL
+      for (int idx = 0; idx < CellControl<D>::kCount; ++idx) {
+        const int i = idx % n, j = (idx / n) % n, k = idx / (n * n);
+        c.v[idx] = corner(walk.cell + ivec3(i + first, j + first, k + first), h, ctx);
+      }
+      acc.samples += CellControl<D>::kCount;
+      const float span_cells = (fabsf(walk.ud.x) + fabsf(walk.ud.y) + fabsf(walk.ud.z)) * (tb - t);
+      const int max_cells = span_cells < 1.0e8f ? int(span_cells) + 8 : 100000008;
+      bool relevel = false;
+      for (int cells = 0;; ++cells) {
+        if (walk.t1 > walk.t0 && c.may_cross() && bspline_cell_hit<D>(ray, walk, c, t, tb, inv_h, tol, ctx, acc)) {
+          return false;
+        }
+        if (!(walk.t1 < tb) || cells >= max_cells) break;
+        const int axis = walk.axis;
+        const bool up = walk.step > 0;
+        walk.advance();
+        if (lod_varies && p.lod.level_at(walk.t0) != ctx.level) {
+          t = walk.t0;
+          relevel = true;
+          break;
+        }
+        // Shift the control points one place along the axis; fetch the new far face.
+        const int stride = axis == 0 ? 1 : (axis == 1 ? n : n * n);
+        SL_DEVICE_NO_UNROLL
+        for (int idx = up ? 0 : CellControl<D>::kCount - 1; up ? idx < CellControl<D>::kCount : idx >= 0; idx += up ? 1 : -1) {
+          const int a = (idx / stride) % n;  // the control point's coordinate along the axis
+          if (up ? a < D : a > 0) {
+            c.v[idx] = c.v[up ? idx + stride : idx - stride];
+          } else {
+            const int i = idx % n, j = (idx / n) % n, k = idx / (n * n);
+            c.v[idx] = corner(walk.cell + ivec3(i + first, j + first, k + first), h, ctx);
+          }
+        }
+        acc.samples += n * n;
+      }
+      if (!relevel) break;
+    }
+    return true;
+  }
+
+  template <int D>
+  SL_HOST_DEVICE SL_DEVICE_NOINLINE bool bspline_cell_hit(const Ray& ray, const CellWalk& walk, const CellControl<D>& c, float t_lo,
+                                       float tb, const vec3& inv_h, float tol, const SampleContext& ctx,
+                                       RayAccum& acc) const {
+    const float len = walk.t1 - walk.t0;
+    float b[3 * D + 1];
+    bspline_ray_bernstein<D>(c, walk.local(walk.t0), walk.local(walk.t1), b);
+    const float tol_s = tol / len;
+    float s_from = 0.0f;
+    for (int attempt = 0; attempt < 8; ++attempt) {
+      float s = 0.0f;
+      if (!lr81_first_root(b, s_from, tol_s, s)) return false;
+      const float th = walk.t0 + s * len;
+      if (!(th < tb)) return false;
+      const float s_next = s + 2.0f * tol_s;
+      if (th < t_lo) {
+        const float s_lo = (t_lo - walk.t0) / len;
+        s_from = s_next > s_lo ? s_next : s_lo;
+        continue;
+      }
+      const vec3 hit = ray.at(th);
+      if (!visible_label(hit, ctx)) {
+        s_from = s_next;
+        continue;
+      }
+      vec3 g;
+      bspline_local<D>(c, walk.local(th), &g);
+      acc.color = shade_headlight(vec3(p.tf.lookup(p.iso)), g * inv_h, ray.dir);
+      acc.alpha = 1.0f;
+      acc.hit_t = th;
+      acc.done = true;
+      ++acc.useful_samples;
+      return true;
+    }
+    return false;
+  }
+
   // The first root in [t_lo, tb) of the cell's ray polynomial whose label is shown: shades it and ends
   // the ray (true), or false when the cell has none.
   SL_HOST_DEVICE bool cell_hit(const Ray& ray, const CellWalk& walk, const CellCorners& c, float t_lo, float tb,
@@ -400,7 +576,7 @@ struct RayCaster {
     const bool a_below = va < p.iso;
     for (int i = 0; i < 12; ++i) {
       const float tm = 0.5f * (ta + tb);
-      const float vm = volume.sample(ray.at(tm), ctx);
+      const float vm = value_at(ray.at(tm), ctx);
       if ((vm < p.iso) == a_below) {
         ta = tm;
         va = vm;
@@ -415,7 +591,7 @@ struct RayCaster {
     const vec3 hit = ray.at(th);
     if (!visible_label(hit, ctx)) return false;
     const vec3 base = vec3(p.tf.lookup(p.iso));
-    acc.color = shade_headlight(base, volume.gradient(hit, p.spacing, ctx), ray.dir);
+    acc.color = shade_headlight(base, gradient_at(hit, ctx), ray.dir);
     acc.alpha = 1.0f;
     acc.hit_t = th;
     acc.done = true;

@@ -26,6 +26,22 @@ IsoMethod parse_iso_method(const std::string& s) {
   throw InputError("--iso-method", "unknown iso method '" + s + "' (expected exact or sampled)");
 }
 
+Filter parse_filter(const std::string& s) {
+  if (s == "linear") return Filter::Linear;
+  if (s == "quadratic") return Filter::Quadratic;
+  if (s == "cubic") return Filter::Cubic;
+  throw InputError("--filter", "unknown filter '" + s + "' (expected linear, quadratic or cubic)");
+}
+
+const char* to_string(Filter f) {
+  switch (f) {
+    case Filter::Linear: return "linear";
+    case Filter::Quadratic: return "quadratic";
+    case Filter::Cubic: return "cubic";
+  }
+  return "?";
+}
+
 const char* to_string(IsoMethod m) {
   switch (m) {
     case IsoMethod::Exact: return "exact";

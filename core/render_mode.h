@@ -16,6 +16,12 @@ enum class SkipMethod : std::uint8_t { None = 0, BBox = 1, Octree = 2, SparseLea
 // bisection (misses a surface crossed twice within one step).
 enum class IsoMethod : std::uint8_t { Exact = 0, Sampled = 1 };
 
+// The reconstruction filter (DESIGN.md §8; issue 17): trilinear, or the uniform tri-quadratic or
+// tri-cubic B-spline with the voxels as control points (approximating: smoother than the data). Exact
+// iso finds roots of the filter's own ray polynomial (degree 3, 6, 9); DVR, MIP and sampled iso take
+// B-spline samples from 8 trilinear fetches [SH05] (core/bspline.h).
+enum class Filter : std::uint8_t { Linear = 0, Quadratic = 1, Cubic = 2 };
+
 // Modes whose frames carry a "depth" channel: iso, the ray parameter t of the surface hit; DVR and
 // labels, the t at which the accumulated opacity first reaches kDepthOpacity (-1 where it never does).
 // MIP has no depth.
@@ -26,8 +32,10 @@ constexpr bool writes_depth(RenderMode m) { return m != RenderMode::Mip; }
 RenderMode parse_render_mode(const std::string& s);
 SkipMethod parse_skip_method(const std::string& s);
 IsoMethod parse_iso_method(const std::string& s);
+Filter parse_filter(const std::string& s);
 const char* to_string(RenderMode m);
 const char* to_string(SkipMethod m);
 const char* to_string(IsoMethod m);
+const char* to_string(Filter f);
 
 }  // namespace sl

@@ -7,6 +7,7 @@
 
 #include "cache/synthetic/generate.h"
 #include "core/in_core_renderer.h"
+#include "core/labels.h"
 #include "core/shading.h"
 
 namespace sl {
@@ -86,6 +87,45 @@ TEST(Shading, LitSphereIsBrightestWhereItFacesTheViewer) {
   }
   EXPECT_GT(lit_px, 100);
   EXPECT_GT(darker, lit_px / 4);
+}
+
+// Lit labels (--mode labels --shade): a label's surface is shaded with the gradient of its mask. A label
+// filling z < 10 seen from above along -z: the mask's gradient there is along z, so the first
+// (opaque) sample is lit head-on: colour * (ambient + diffuse) + specular.
+TEST(Shading, LitLabelsShadeEachLabelsSurfaceByItsMask) {
+  const ivec3 dims(20, 20, 20);
+  Volume v(VolumeDesc{dims, vec3(1.0f), VoxelType::U8}), lab(VolumeDesc{dims, vec3(1.0f), VoxelType::U8});
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x) {
+        v.set(x, y, z, 200);
+        lab.set(x, y, z, z < 10 ? 1 : 0);
+      }
+  const TransferFunction tf({{0, {1, 1, 1, 1}}, {255, {1, 1, 1, 1}}});
+  Camera cam;
+  cam.projection = Projection::Orthographic;
+  cam.center = vec3(10.0f, 10.0f, 5.0f);
+  cam.eye = vec3(10.0f, 10.0f, 40.0f);
+  cam.up = vec3(0, 1, 0);
+  cam.height = 10.0f;
+  Scene scene{&v, &lab, &tf, nullptr, cam};
+  RenderSettings s;
+  s.width = s.height = 8;
+  s.mode = RenderMode::Labels;
+  s.method = SkipMethod::None;
+  InCoreRenderer r;
+  const Frame unlit = r.render(scene, s);
+  s.lighting.enabled = true;
+  const Frame lit = r.render(scene, s);
+  const vec3 base = label_color(1);
+  for (int i = 0; i < 64; ++i) {
+    ASSERT_EQ(unlit.image.rgba[i].w, 1.0f);
+    EXPECT_NEAR(unlit.image.rgba[i].x, base.x, 1e-5f);
+    EXPECT_EQ(lit.image.rgba[i].w, 1.0f);
+    EXPECT_NEAR(lit.image.rgba[i].x, base.x * 0.8f + 0.2f, 1e-4f);
+    EXPECT_NEAR(lit.image.rgba[i].y, base.y * 0.8f + 0.2f, 1e-4f);
+    EXPECT_NEAR(lit.image.rgba[i].z, base.z * 0.8f + 0.2f, 1e-4f);
+  }
 }
 
 }  // namespace

@@ -25,7 +25,8 @@ struct Case {
   int block = 16;
   bool ert = false;
   IsoMethod iso_method = IsoMethod::Exact;  // iso mode: exact roots (the default) or sampled bisection
-  bool shade = false;                       // dvr: Blinn–Phong (--shade)
+  bool shade = false;                       // dvr, labels: Blinn–Phong (--shade)
+  Filter filter = Filter::Linear;           // reconstruction (--filter)
 };
 
 class SkippingMethods : public ::testing::TestWithParam<Case> {
@@ -87,6 +88,7 @@ TEST_P(SkippingMethods, ProduceIdenticalImages) {
   s.iso = 150.0f;
   s.iso_method = k.iso_method;
   s.lighting.enabled = k.shade;
+  s.filter = k.filter;
   s.block = k.block;
   s.ert = k.ert;
   s.fine_cell = 0;  // the four methods as the paper has them; the fine grid is checked below
@@ -118,7 +120,9 @@ TEST_P(SkippingMethods, ProduceIdenticalImages) {
       max_diff = std::max({max_diff, d.x, d.y, d.z, d.w});
     }
     EXPECT_LE(max_diff, 1e-5f) << to_string(kMethods[m]) << " differs from none";
-    EXPECT_LE(frames[m].stats.samples, ref.stats.samples + (k.mode == RenderMode::Iso ? ref.stats.rays * 64 : 0))
+    // Iso pays for the walk's restart at each span: 8 cell corners (64 control points for the cubic).
+    const std::uint64_t restart = k.filter == Filter::Linear ? 64 : 512;
+    EXPECT_LE(frames[m].stats.samples, ref.stats.samples + (k.mode == RenderMode::Iso ? ref.stats.rays * restart : 0))
         << to_string(kMethods[m]);
   }
   // SparseLeap never takes more samples than no skipping (iso adds at most two per segment).
@@ -158,7 +162,25 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"dvr_shaded", RenderMode::Dvr, 0, "", 0, 16, false, IsoMethod::Exact, true},
                       Case{"dvr_shaded_narrow_labels", RenderMode::Dvr, 1, "fraction:0.3:1", 0, 16, false,
                            IsoMethod::Exact, true},
-                      Case{"dvr_shaded_inside_ert", RenderMode::Dvr, 2, "", 1, 8, true, IsoMethod::Exact, true}),
+                      Case{"dvr_shaded_inside_ert", RenderMode::Dvr, 2, "", 1, 8, true, IsoMethod::Exact, true},
+                      // B-spline reconstruction (culling metadata widened to the filter's footprint).
+                      Case{"dvr_cubic_narrow_band", RenderMode::Dvr, 1, "", 0, 16, false, IsoMethod::Exact, false,
+                           Filter::Cubic},
+                      Case{"dvr_quadratic_labels", RenderMode::Dvr, 0, "fraction:0.1:3", 0, 16, false,
+                           IsoMethod::Exact, false, Filter::Quadratic},
+                      Case{"dvr_cubic_shaded_block4", RenderMode::Dvr, 0, "", 0, 4, false, IsoMethod::Exact, true,
+                           Filter::Cubic},
+                      Case{"mip_cubic_labels", RenderMode::Mip, 0, "fraction:0.2:5", 0, 16, false, IsoMethod::Exact,
+                           false, Filter::Cubic},
+                      Case{"iso_cubic", RenderMode::Iso, 0, "", 0, 16, false, IsoMethod::Exact, false, Filter::Cubic},
+                      Case{"iso_quadratic_inside", RenderMode::Iso, 0, "", 1, 8, false, IsoMethod::Exact, false,
+                           Filter::Quadratic},
+                      Case{"iso_cubic_labels_sampled", RenderMode::Iso, 0, "fraction:0.5:2", 0, 16, false,
+                           IsoMethod::Sampled, false, Filter::Cubic},
+                      // Lit labels: each label shaded by the gradient of its mask.
+                      Case{"labels_shaded", RenderMode::Labels, 0, "", 0, 16, false, IsoMethod::Exact, true},
+                      Case{"labels_shaded_cubic_fraction", RenderMode::Labels, 2, "fraction:0.3:1", 1, 8, false,
+                           IsoMethod::Exact, true, Filter::Cubic}),
     [](const ::testing::TestParamInfo<Case>& i) { return i.param.name; });
 
 TEST(SkippingReuse, TransferFunctionAndLabelChangesReuseMetadata) {
