@@ -71,7 +71,12 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
           "FINITE"));
   c.add_option("--iso-method", o.iso_method,
                "Iso surface: exact (first root of the trilinear interpolant per cell, LR81) or sampled (first "
-               "sample pair bracketing the iso value, bisection)")
+               "sample pair bracketing the iso value, bisection)" + std::string(view ? " (key E)" : ""))
+      ->capture_default_str();
+  c.add_option("--filter", o.filter,
+               "Reconstruction: linear (trilinear), quadratic or cubic (uniform B-spline, approximating; exact iso "
+               "finds the filter's own roots). Out of core the B-splines need --method none" +
+                   std::string(view ? " (key F)" : ""))
       ->capture_default_str();
   c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in [0.001, 64]")->capture_default_str();
   c.add_option("--block", o.block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
@@ -81,7 +86,8 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
       ->capture_default_str();
   c.add_flag("--ert", o.ert, "Early ray termination at opacity 0.99");
   c.add_flag("--shade", o.lighting.enabled,
-             "dvr: Blinn-Phong lighting with a headlight on the gradient (VTK's model and defaults)");
+             "dvr and labels: Blinn-Phong lighting with a headlight on the gradient (VTK's model and defaults; "
+             "labels: the gradient of each label's mask)" + std::string(view ? " (key L)" : ""));
   c.add_option("--ambient", o.lighting.ambient, "--shade: ambient coefficient in [0, 1]")->capture_default_str();
   c.add_option("--diffuse", o.lighting.diffuse, "--shade: diffuse coefficient in [0, 1]")->capture_default_str();
   c.add_option("--specular", o.lighting.specular, "--shade: specular coefficient in [0, 1]")->capture_default_str();
@@ -144,6 +150,7 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   rs.mode = parse_render_mode(o.mode);
   rs.method = parse_skip_method(o.method);
   rs.iso_method = parse_iso_method(o.iso_method);
+  rs.filter = parse_filter(o.filter);
   rs.step = o.step;
   rs.ert = o.ert;
   rs.lighting = o.lighting;

@@ -29,6 +29,7 @@ struct RenderOptions {
   bool boxes = false;                 // render, view
   float iso = NAN;              // NaN: 128 for u8, else the transfer function's mid-range
   std::string iso_method = "exact";
+  std::string filter = "linear";
   float step = 0.5f;
   int block = 16;
   int fine_cell = 4;            // fine occupancy cells inside SparseLeap segments (0: off)

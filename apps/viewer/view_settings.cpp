@@ -26,11 +26,26 @@ KeyAction apply_key(ViewSettings& v, int key) {
     case '3':
     case '4':
       if (!method_available(v, kMethods[key - '1'])) return KeyAction::None;
+      // Out of core the B-splines run with --method none only.
+      if (v.out_of_core && v.render.filter != Filter::Linear && kMethods[key - '1'] != SkipMethod::None) {
+        return KeyAction::None;
+      }
       v.render.method = kMethods[key - '1'];
       return KeyAction::Changed;
     case 'M': v.render.mode = next_mode(v.render.mode, v.has_labels); return KeyAction::Changed;
     case 'B': v.render.boxes_overlay = !v.render.boxes_overlay; return KeyAction::Changed;
     case 'D': v.render.depth_complexity_view = !v.render.depth_complexity_view; return KeyAction::Changed;
+    case 'L': v.render.lighting.enabled = !v.render.lighting.enabled; return KeyAction::Changed;
+    case 'E':
+      v.render.iso_method = v.render.iso_method == IsoMethod::Exact ? IsoMethod::Sampled : IsoMethod::Exact;
+      return KeyAction::Changed;
+    case 'F':
+      // Out of core the B-splines need --method none (the bricks' apron bounds culling to trilinear).
+      if (v.out_of_core && v.render.method != SkipMethod::None) return KeyAction::None;
+      v.render.filter = v.render.filter == Filter::Linear ? Filter::Quadratic
+                        : v.render.filter == Filter::Quadratic ? Filter::Cubic
+                                                               : Filter::Linear;
+      return KeyAction::Changed;
     case 'R': return KeyAction::ResetView;
     case 'S': return KeyAction::Screenshot;
     case 'K': return KeyAction::Keyframe;
@@ -50,7 +65,7 @@ bool same_lod(const RenderSettings& a, const RenderSettings& b) {
 
 bool same_settings(const RenderSettings& a, const RenderSettings& b) {
   return a.width == b.width && a.height == b.height && a.mode == b.mode && a.method == b.method &&
-         a.step == b.step && a.iso == b.iso && a.iso_method == b.iso_method && a.ert == b.ert && a.block == b.block &&
+         a.step == b.step && a.iso == b.iso && a.iso_method == b.iso_method && a.filter == b.filter && a.ert == b.ert && a.block == b.block &&
          a.gap_eps == b.gap_eps && a.lighting.enabled == b.lighting.enabled &&
          a.lighting.ambient == b.lighting.ambient && a.lighting.diffuse == b.lighting.diffuse &&
          a.lighting.specular == b.lighting.specular && a.lighting.shininess == b.lighting.shininess &&

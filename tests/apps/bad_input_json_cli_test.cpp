@@ -93,6 +93,8 @@ std::vector<Case> cli_cases() {
       {"cli", "--iso nan", kNothing, r + "--iso nan --mode iso", 2, "--iso"},
       {"cli", "--iso-method", kNothing, r + "--mode iso --iso-method guess", 1, "--iso-method"},
       {"cli", "--iso-method without value", kNothing, r + "--mode iso --iso-method", 2, "--iso-method"},
+      {"cli", "--filter", kNothing, r + "--filter bicubic", 1, "--filter"},
+      {"cli", "--filter out of core with sparseleap", kNothing, r + "--cache-mb 8 --filter cubic", 1, "--filter"},
       {"cli", "--ambient negative", kNothing, r + "--shade --ambient -0.5", 1, "--ambient"},
       {"cli", "--diffuse above one", kNothing, r + "--shade --diffuse 1.5", 1, "--diffuse"},
       {"cli", "--specular nan", kNothing, r + "--shade --specular nan", 1, "--specular"},

@@ -78,6 +78,34 @@ TEST(ViewKeys, TogglesAndActions) {
   EXPECT_EQ(apply_key(v, '5'), KeyAction::None);
 }
 
+TEST(ViewKeys, LightingIsoMethodAndFilterToggles) {
+  ViewSettings v;
+  EXPECT_EQ(apply_key(v, 'L'), KeyAction::Changed);
+  EXPECT_TRUE(v.render.lighting.enabled);
+  apply_key(v, 'l');
+  EXPECT_FALSE(v.render.lighting.enabled);
+  EXPECT_EQ(apply_key(v, 'E'), KeyAction::Changed);
+  EXPECT_EQ(v.render.iso_method, IsoMethod::Sampled);
+  apply_key(v, 'E');
+  EXPECT_EQ(v.render.iso_method, IsoMethod::Exact);
+  std::vector<Filter> seen;
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_EQ(apply_key(v, 'F'), KeyAction::Changed);
+    seen.push_back(v.render.filter);
+  }
+  EXPECT_EQ(seen, (std::vector<Filter>{Filter::Quadratic, Filter::Cubic, Filter::Linear}));
+  // Out of core the B-splines run with method none only: F is ignored under sparseleap, and with a
+  // B-spline on, the digits keep to none.
+  v.out_of_core = true;
+  EXPECT_EQ(apply_key(v, 'F'), KeyAction::None);
+  EXPECT_EQ(v.render.filter, Filter::Linear);
+  apply_key(v, '1');
+  EXPECT_EQ(apply_key(v, 'F'), KeyAction::Changed);
+  EXPECT_EQ(v.render.filter, Filter::Quadratic);
+  EXPECT_EQ(apply_key(v, '4'), KeyAction::None);
+  EXPECT_EQ(v.render.method, SkipMethod::None);
+}
+
 TEST(ViewSettingsCompare, EveryFieldThatChangesTheImageCounts) {
   RenderSettings a, b;
   EXPECT_TRUE(same_settings(a, b));
@@ -88,6 +116,9 @@ TEST(ViewSettingsCompare, EveryFieldThatChangesTheImageCounts) {
   EXPECT_FALSE(same_settings(a, b));
   b = a;
   b.width += 1;
+  EXPECT_FALSE(same_settings(a, b));
+  b = a;
+  b.filter = Filter::Cubic;
   EXPECT_FALSE(same_settings(a, b));
   Camera c, d;
   EXPECT_TRUE(same_camera(c, d));

@@ -246,7 +246,7 @@ void canvas_input(Session& s, Drag& d, const ViewerScene& sc, const Shown& shown
 PanelActions key_input(Session& s) {
   PanelActions a;
   if (ImGui::GetIO().WantCaptureKeyboard) return a;
-  for (int key : {'1', '2', '3', '4', 'M', 'B', 'D', 'R', 'S', 'K'}) {
+  for (int key : {'1', '2', '3', '4', 'M', 'B', 'D', 'L', 'E', 'F', 'R', 'S', 'K'}) {
     if (!ImGui::IsKeyPressed(key, false)) continue;
     switch (apply_key(s.view, key)) {
       case KeyAction::ResetView: a.reset_view = true; break;
