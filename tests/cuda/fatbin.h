@@ -1,7 +1,9 @@
 // Reads the CUDA fat binaries embedded in a host binary (executable, object or archive) without the
 // CUDA toolkit's cuobjdump (not in the nvcc packages these machines have): every fatbin blob starts
 // with the magic 0xBA55ED50; its entries are PTX (kind 1, compressed by default) or ELF cubins
-// (kind 2, stored uncompressed unless -compress-all), each with its SM architecture. For the cubins
+// (kind 2, stored uncompressed unless -compress-all or, under nvcc 13's default compress mode, once a
+// cubin is large enough: flag 0x8000, a zstd frame, which is decompressed here with libzstd; flag
+// 0x2000 is LZ4, not read), each with its SM architecture. For the cubins
 // the function names are read from the ELF section headers (a kernel's code is ".text.<mangled>").
 // Layout as nvcc 13's fatbinary writes it, checked against the files it produces.
 #pragma once
@@ -14,6 +16,8 @@
 #include <set>
 #include <string>
 #include <vector>
+
+#include <zstd.h>
 
 namespace sl::test {
 
@@ -77,10 +81,29 @@ inline FatbinContents read_fatbins(const std::string& path) {
       const auto arch = rd<std::uint32_t>(d, p + 28);
       const auto flags = rd<std::uint64_t>(d, p + 40);
       if (entry_header < 64 || p + entry_header + size > end) break;
-      const bool compressed = (flags & 0x2000u) != 0;
+      const bool lz4 = (flags & 0x2000u) != 0, zstd = (flags & 0x8000u) != 0;
       if (kind == 1) c.ptx_archs.insert(int(arch));
-      if (kind == 2 && !compressed) read_cubin(d, p + entry_header, std::size_t(size), c.elf_functions[int(arch)]);
-      if (kind == 2 && compressed) c.elf_functions[int(arch)].insert("<compressed>");
+      if (kind == 2 && !lz4 && !zstd) read_cubin(d, p + entry_header, std::size_t(size), c.elf_functions[int(arch)]);
+      if (kind == 2 && zstd) {
+        // The entry may be padded past the frame: decompress exactly one frame.
+        const char* src = d.data() + p + entry_header;
+        const std::size_t frame = ZSTD_findFrameCompressedSize(src, std::size_t(size));
+        const unsigned long long out_size = ZSTD_getFrameContentSize(src, std::size_t(size));
+        std::vector<char> elf;
+        if (!ZSTD_isError(frame) && out_size != ZSTD_CONTENTSIZE_ERROR && out_size != ZSTD_CONTENTSIZE_UNKNOWN &&
+            out_size < (1ull << 32)) {
+          elf.resize(std::size_t(out_size));
+          const std::size_t n = ZSTD_decompress(elf.data(), elf.size(), src, frame);
+          if (ZSTD_isError(n)) elf.clear();
+          elf.resize(ZSTD_isError(n) ? 0 : n);
+        }
+        if (elf.empty()) {
+          c.elf_functions[int(arch)].insert("<compressed>");
+        } else {
+          read_cubin(elf, 0, elf.size(), c.elf_functions[int(arch)]);
+        }
+      }
+      if (kind == 2 && lz4) c.elf_functions[int(arch)].insert("<compressed>");
       p += entry_header + size;
     }
     i = end - 1;
