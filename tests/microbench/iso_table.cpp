@@ -1,7 +1,9 @@
 // sl_iso_table: the exact-vs-sampled isosurface table of issue 17 (the shape of seed 004's Table 6.2) on
-// one volume: per configuration the median ray-cast time and frames per second, the depth error against
-// the reference root (exact, LR81 to 1e-6 of a cell) and, for the sphere distance field, against the
-// analytic sphere, and the pixels the sampled method misses. A program run by hand for numbers (never a
+// one volume: per filter (trilinear, tri-quadratic and tri-cubic B-spline) the exact method and sampling
+// at steps 0.5 and 0.25 [SH05], each with the median ray-cast time and frames per second, the depth error
+// against the filter's reference root (its exact method, LR81 to 1e-6 of a cell, which the tests check
+// against a dense double-precision scan) and, for the sphere distance field, against the analytic sphere,
+// and the pixels the sampled method misses. A program run by hand for numbers (never a
 // timing assertion in a test, STYLE.md #11); ctest only smoke-runs it on tiny data.
 //
 //   sl_iso_table VOLUME ISO [SIZE] [REPEATS]
@@ -23,6 +25,7 @@ namespace {
 
 struct Result {
   std::string name;
+  int ref = 0;  // index of the row holding this row's reference roots
   double raycast_ms = 0.0, total_ms = 0.0;
   std::vector<float> depth;
 };
@@ -81,25 +84,33 @@ int main_impl(int argc, char** argv) {
   s.method = SkipMethod::SparseLeap;
 
   std::vector<Result> results;
-  for (const float step : {0.5f, 0.25f}) {
-    s.step = step;
+  for (const Filter filter : {Filter::Linear, Filter::Quadratic, Filter::Cubic}) {
+    s.filter = filter;
+    const int ref = int(results.size());
+    const std::string f = to_string(filter);
+    s.step = 0.5f;  // exact roots do not depend on the step
     s.iso_method = IsoMethod::Exact;
-    results.push_back(run(scene, s, "exact step " + std::to_string(step).substr(0, 4), repeats));
+    results.push_back(run(scene, s, f + " exact", repeats));
+    results.back().ref = ref;
     s.iso_method = IsoMethod::Sampled;
-    results.push_back(run(scene, s, "sampled step " + std::to_string(step).substr(0, 4), repeats));
+    for (const float step : {0.5f, 0.25f}) {
+      s.step = step;
+      results.push_back(run(scene, s, f + " sampled " + std::to_string(step).substr(0, 4), repeats));
+      results.back().ref = ref;
+    }
   }
-  const std::vector<float>& ref = results[0].depth;  // exact roots do not depend on the step
   const RayGenerator gen = make_ray_generator(cam, size, size);
   const vec3 centre = 0.5f * vec3(volume.dims());  // the sphere generator's centre (spacing 1)
   const double min_spacing = volume.desc().min_spacing();
 
   std::printf("volume %s (%dx%dx%d), iso %g, %dx%d, sparseleap, median of %d\n", spec.c_str(), volume.dims().x,
               volume.dims().y, volume.dims().z, iso, size, size, repeats);
-  std::printf("%-18s %9s %7s %7s %10s %10s %6s %7s %6s%s\n", "method", "cast_ms", "fps", "hits", "err_max",
+  std::printf("%-24s %9s %7s %7s %10s %10s %6s %7s %6s%s\n", "method", "cast_ms", "fps", "hits", "err_max",
               "err_mean", "other", "missed", "extra", sphere ? "  sphere_max sphere_mean" : "");
   std::printf("(errors in voxels against the exact root where both hit within 0.5 voxel; other: both hit, farther\n"
               " apart (a crossing stepped over); missed: exact hits, this one does not; extra: the reverse)\n");
   for (const Result& r : results) {
+    const std::vector<float>& ref = results[std::size_t(r.ref)].depth;
     double max_e = 0.0, sum_e = 0.0, smax = 0.0, ssum = 0.0;
     long both = 0, other = 0, missed = 0, extra = 0, hits = 0, shits = 0;
     for (int i = 0; i < size * size; ++i) {
@@ -129,7 +140,7 @@ int main_impl(int argc, char** argv) {
         }
       }
     }
-    std::printf("%-18s %9.1f %7.2f %7ld %10.2e %10.2e %6ld %7ld %6ld", r.name.c_str(), r.raycast_ms,
+    std::printf("%-24s %9.1f %7.2f %7ld %10.2e %10.2e %6ld %7ld %6ld", r.name.c_str(), r.raycast_ms,
                 1000.0 / r.total_ms, hits, max_e, both ? sum_e / both : 0.0, other, missed, extra);
     if (sphere) std::printf("  %10.4f %11.4f", smax, shits ? ssum / shits : 0.0);
     std::printf("\n");
