@@ -496,49 +496,37 @@ struct RayCaster {
   }
 
   template <int D>
-  SL_HOST_DEVICE SL_DEVICE_NOINLINE bool bspline_cell_hit(const Ray& ray, const CellWalk& walk, const CellControl<D>& c, float t_lo,
-                                       float tb, const vec3& inv_h, float tol, const SampleContext& ctx,
-                                       RayAccum& acc) const {
-    const float len = walk.t1 - walk.t0;
+  SL_HOST_DEVICE SL_DEVICE_NOINLINE bool bspline_cell_hit(const Ray& ray, const CellWalk& walk, const CellControl<D>& c,
+                                                           float t_lo, float tb, const vec3& inv_h, float tol,
+                                                           const SampleContext& ctx, RayAccum& acc) const {
     float b[3 * D + 1];
     bspline_ray_bernstein<D>(c, walk.local(walk.t0), walk.local(walk.t1), b);
-    const float tol_s = tol / len;
-    float s_from = 0.0f;
-    for (int attempt = 0; attempt < 8; ++attempt) {
-      float s = 0.0f;
-      if (!lr81_first_root(b, s_from, tol_s, s)) return false;
-      const float th = walk.t0 + s * len;
-      if (!(th < tb)) return false;
-      const float s_next = s + 2.0f * tol_s;
-      if (th < t_lo) {
-        const float s_lo = (t_lo - walk.t0) / len;
-        s_from = s_next > s_lo ? s_next : s_lo;
-        continue;
-      }
-      const vec3 hit = ray.at(th);
-      if (!visible_label(hit, ctx)) {
-        s_from = s_next;
-        continue;
-      }
+    return first_shown_root(ray, walk, b, t_lo, tb, tol, ctx, acc, [&](const vec3& f) {
       vec3 g;
-      bspline_local<D>(c, walk.local(th), &g);
-      acc.color = shade_headlight(vec3(p.tf.lookup(p.iso)), g * inv_h, ray.dir);
-      acc.alpha = 1.0f;
-      acc.hit_t = th;
-      acc.done = true;
-      ++acc.useful_samples;
-      return true;
-    }
-    return false;
+      bspline_local<D>(c, f, &g);
+      return g * inv_h;
+    });
   }
 
   // The first root in [t_lo, tb) of the cell's ray polynomial whose label is shown: shades it and ends
   // the ray (true), or false when the cell has none.
   SL_HOST_DEVICE bool cell_hit(const Ray& ray, const CellWalk& walk, const CellCorners& c, float t_lo, float tb,
                                const vec3& inv_h, float tol, const SampleContext& ctx, RayAccum& acc) const {
-    const float len = walk.t1 - walk.t0;
     float b[4];
     ray_bernstein(c, walk.local(walk.t0), walk.local(walk.t1), b);
+    return first_shown_root(ray, walk, b, t_lo, tb, tol, ctx, acc,
+                            [&](const vec3& f) { return trilinear_gradient_local(c, f) * inv_h; });
+  }
+
+  // The first root in [t_lo, tb) of the ray polynomial b (Bernstein form on the cell's stretch of the
+  // walk) whose label is shown, by LR81: shades it with `gradient(local point)` (world units) and ends
+  // the ray (true), or false when the stretch has none. Roots before t_lo (another stretch's) and
+  // masked-out ones are passed over, as the sampled method passes over them.
+  template <int N, class Gradient>
+  SL_HOST_DEVICE SL_INLINE bool first_shown_root(const Ray& ray, const CellWalk& walk, const float (&b)[N], float t_lo,
+                                                 float tb, float tol, const SampleContext& ctx, RayAccum& acc,
+                                                 const Gradient& gradient) const {
+    const float len = walk.t1 - walk.t0;
     const float tol_s = tol / len;
     float s_from = 0.0f;
     for (int attempt = 0; attempt < 8; ++attempt) {
@@ -558,8 +546,7 @@ struct RayCaster {
         s_from = s_next;  // masked out: the ray goes on, as the sampled method's does
         continue;
       }
-      const vec3 grad = trilinear_gradient_local(c, walk.local(th)) * inv_h;
-      acc.color = shade_headlight(vec3(p.tf.lookup(p.iso)), grad, ray.dir);
+      acc.color = shade_headlight(vec3(p.tf.lookup(p.iso)), gradient(walk.local(th)), ray.dir);
       acc.alpha = 1.0f;
       acc.hit_t = th;
       acc.done = true;
