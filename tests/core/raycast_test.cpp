@@ -22,14 +22,21 @@ Camera ortho_down_z(const vec3& extent, float height) {
   return c;
 }
 
-TEST(RayCast, ConstantSlabMatchesBeerLambert) {
+// A u8 volume of one value.
+Volume uniform_u8(const ivec3& dims, int value) {
   VolumeDesc d;
-  d.dims = ivec3(16, 16, 64);
+  d.dims = dims;
   d.type = VoxelType::U8;
   Volume v(d);
-  for (int z = 0; z < 64; ++z)
-    for (int y = 0; y < 16; ++y)
-      for (int x = 0; x < 16; ++x) v.set(x, y, z, 100);
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x) v.set(x, y, z, value);
+  return v;
+}
+
+TEST(RayCast, ConstantSlabMatchesBeerLambert) {
+  const Volume v = uniform_u8(ivec3(16, 16, 64), 100);
+  const VolumeDesc& d = v.desc();
   const float a = 0.05f;  // opacity per unit (min spacing) length
   TransferFunction tf({{0.0f, {0.2f, 0.6f, 1.0f, a}}, {255.0f, {0.2f, 0.6f, 1.0f, a}}});
   for (float step : {0.5f, 0.25f, 1.0f}) {
@@ -51,13 +58,8 @@ TEST(RayCast, ConstantSlabMatchesBeerLambert) {
 }
 
 TEST(RayCast, DvrDepthIsTheFirstSampleWhereTheOpacityReachesAHalf) {
-  VolumeDesc d;
-  d.dims = ivec3(8, 8, 64);
-  d.type = VoxelType::U8;
-  Volume v(d);
-  for (int z = 0; z < 64; ++z)
-    for (int y = 0; y < 8; ++y)
-      for (int x = 0; x < 8; ++x) v.set(x, y, z, 100);
+  const Volume v = uniform_u8(ivec3(8, 8, 64), 100);
+  const VolumeDesc& d = v.desc();
   for (const float a : {0.05f, 0.2f, 0.005f}) {
     TransferFunction tf({{0.0f, {1, 1, 1, a}}, {255.0f, {1, 1, 1, a}}});
     for (const float step : {0.5f, 0.25f, 1.0f}) {
