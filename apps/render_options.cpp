@@ -84,6 +84,10 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "Fine occupancy cell edge in voxels inside SparseLeap segments (in core): 4 or 8, 0 = off; the "
                "image is the same, only clear cells' samples are skipped")
       ->capture_default_str();
+  c.add_option("--voxel-mask", o.voxel_mask,
+               "on|off: inside occupied fine cells, skip the samples whose 2x2x2 voxels cannot contribute (in core, "
+               "u8/u16 volumes, dvr and labels, trilinear); the image is the same, fewer samples are fetched")
+      ->capture_default_str();
   c.add_flag("--ert", o.ert, "Early ray termination at opacity 0.99");
   c.add_flag("--shade", o.lighting.enabled,
              "dvr and labels: Blinn-Phong lighting with a headlight on the gradient (VTK's model and defaults; "
@@ -158,6 +162,10 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   rs.block = o.block;
   rs.fine_cell = o.fine_cell;
   validate_fine_cell(o.fine_cell);
+  if (o.voxel_mask != "on" && o.voxel_mask != "off") {
+    throw InputError("--voxel-mask", "must be on or off, not '" + o.voxel_mask + "'");
+  }
+  rs.voxel_mask = o.voxel_mask == "on";
   rs.boxes_overlay = o.boxes;
   if (o.view == "depth-complexity") {
     rs.depth_complexity_view = true;

@@ -33,6 +33,7 @@ struct RenderOptions {
   float step = 0.5f;
   int block = 16;
   int fine_cell = 4;            // fine occupancy cells inside SparseLeap segments (0: off)
+  std::string voxel_mask = "on";  // on|off: the per-sample bit inside occupied fine cells
   bool ert = false;
   Lighting lighting;            // --shade --ambient --diffuse --specular --shininess (dvr)
   std::string backend = "auto";

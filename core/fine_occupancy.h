@@ -20,17 +20,47 @@
 #include "core/config.h"
 #include "core/math.h"
 #include "core/ray.h"
+#include "core/sampling.h"
 
 namespace sl {
 
 struct BlockMetadataTable;
 struct CullParams;
 
+// The finest level: a bit per trilinear cell (the 2×2×2 voxels one sample blends), set when a sample
+// in it can contribute under the current transfer function and labels (DVR and labels modes, the
+// trilinear filter, level 0 of an in-core u8/u16 volume). The caster tests it before it fetches a
+// sample: the cell is the one DenseGrid::sample blends (clamped_voxel_coord, the same arithmetic), so a
+// clear bit is exact — its 8 voxels' range is fully transparent, or none of their labels is enabled,
+// and the sample's value lies in that range and its label is one of them. Cell (x, y, z) has bit x
+// of row (z, y); rows are padded to whole 64-bit words.
+struct VoxelMaskView {
+  const std::uint64_t* bits = nullptr;  // null: no mask (every sample is fetched)
+  ivec3 dims{0, 0, 0};                  // the volume's (and the cells') dims
+  int row_words = 0;                    // 64-bit words per row of cells: (dims.x + 63) / 64
+  vec3 inv_spacing{1.0f};
+  vec3 max_coord{0.0f};                 // vec3(dims - 1), for clamped_voxel_coord
+
+  SL_HOST_DEVICE SL_INLINE bool enabled() const { return bits != nullptr; }
+  SL_HOST_DEVICE std::size_t word_count() const {
+    return std::size_t(row_words) * std::size_t(dims.y) * std::size_t(dims.z);
+  }
+  // The bit of the trilinear cell holding world point p.
+  SL_HOST_DEVICE SL_INLINE bool visible(const vec3& p) const {
+    const vec3 u = clamped_voxel_coord(p, inv_spacing, max_coord);
+    const int x = int(u.x), y = int(u.y), z = int(u.z);
+    const std::size_t row = std::size_t(z) * std::size_t(dims.y) + std::size_t(y);
+    return ((bits[row * std::size_t(row_words) + std::size_t(x >> 6)] >> (x & 63)) & 1u) != 0u;
+  }
+};
+static_assert(sizeof(VoxelMaskView) == 48, "VoxelMaskView is uploaded to devices as is");
+
 struct FineOccupancyView {
   const std::uint64_t* bits = nullptr;  // null: no fine grid (every cell counts as occupied)
   ivec3 cells{0, 0, 0};
   vec3 cell_size{1.0f};                 // world size of a cell: C * spacing
   vec3 inv_cell_size{1.0f};
+  VoxelMaskView voxels;                 // inside occupied cells, the per-sample test (off: not built)
 
   SL_HOST_DEVICE SL_INLINE bool enabled() const { return bits != nullptr; }
   // 64-bit words behind `bits` (what a device copy must hold).
@@ -63,7 +93,7 @@ struct FineOccupancyView {
     return inv;
   }
 };
-static_assert(sizeof(FineOccupancyView) == 48, "FineOccupancyView is uploaded to devices as is");
+static_assert(sizeof(FineOccupancyView) == 96, "FineOccupancyView is uploaded to devices as is");
 
 // The cells a ray crosses, in order: a 3D DDA (Amanatides & Woo 1987) that steps to the neighbour
 // across the nearest exit plane, so a cell costs a comparison and one plane distance instead of a
@@ -123,6 +153,25 @@ struct FineCellWalk {
   SL_HOST_DEVICE SL_INLINE static float plane_t(float plane, float origin, float inv) {
     return inv != 0.0f ? (plane - origin) * inv : 3.402823466e+38f;
   }
+};
+
+struct VolumeView;
+
+// The host side of VoxelMaskView: built from the volume (and labels) for the current culling
+// parameters, one pass over the voxels (parallel over rows); u8 and u16 volumes only (supported()).
+class VoxelMask {
+ public:
+  static bool supported(const VolumeView& volume);
+  // cull.mode must be Dvr or Labels. Throws std::logic_error for an unsupported volume type.
+  void build(const VolumeView& volume, const VolumeView* labels, const CullParams& cull);
+  VoxelMaskView view() const { return view_; }
+  std::size_t set_cells() const { return set_; }
+  std::size_t bytes() const { return bits_.size() * sizeof(std::uint64_t); }
+
+ private:
+  std::vector<std::uint64_t> bits_;
+  VoxelMaskView view_;
+  std::size_t set_ = 0;
 };
 
 // Allowed cell edges in voxels.

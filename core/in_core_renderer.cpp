@@ -37,6 +37,8 @@ struct InCoreRenderer::State {
     FineOccupancy bits;
     std::uint64_t key = 0;
     bool valid = false;
+    VoxelMask voxels;  // for the same inputs, built when first wanted
+    bool voxels_valid = false;
   };
   FineBits fine[2];
   int fine_recent = 0;  // the entry used last
@@ -163,11 +165,24 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
       S.fine[i].bits.classify(*S.fine_metadata, cull);
       S.fine[i].key = key;
       S.fine[i].valid = true;
+      S.fine[i].voxels_valid = false;
     }
     S.fine_recent = i;
   }
+  FineOccupancyView view = S.fine[i].bits.view();
+  const VolumeView vv = scene.volume->view();
+  if (s.voxel_mask && s.filter == Filter::Linear && (s.mode == RenderMode::Dvr || s.mode == RenderMode::Labels) &&
+      VoxelMask::supported(vv)) {
+    if (!S.fine[i].voxels_valid) {
+      VolumeView lv;
+      if (scene.labels) lv = scene.labels->view();
+      S.fine[i].voxels.build(vv, scene.labels ? &lv : nullptr, cull);
+      S.fine[i].voxels_valid = true;
+    }
+    view.voxels = S.fine[i].voxels.view();
+  }
   st.time_ms.metadata += t.ms();
-  return S.fine[i].bits.view();
+  return view;
 }
 
 Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {

@@ -246,6 +246,13 @@ struct RayCaster {
     if (!lod_varies) ctx.level = p.lod.level_at(0.0f);
     int k = k0;
     if constexpr (kFine) {
+      // Inside occupied cells the per-sample bit of the voxel mask (core/fine_occupancy.h), where it
+      // was built for these inputs: a sample whose trilinear cell cannot contribute is not fetched.
+      const VoxelMaskView* mask = fine.voxels.enabled() && !lod_varies && ctx.level == 0 &&
+                                          p.filter == Filter::Linear &&
+                                          (p.mode == RenderMode::Dvr || p.mode == RenderMode::Labels)
+                                      ? &fine.voxels
+                                      : nullptr;
       // Cell by cell: the grid samples of a clear cell are skipped, those of an occupied cell taken.
       // A cell owns the samples before its exit that the previous cells did not take; rounding can
       // leave it none, or hand a sample to its neighbour — within the half-voxel margin either way.
@@ -256,7 +263,7 @@ struct RayCaster {
           next = next < k1 ? next : k1;
           if (fine.occupied_at(walk.index)) {
             for (; k < next; ++k) {
-              if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies)) return false;
+              if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, mask)) return false;
             }
           } else if (next > k) {
             k = next;
@@ -267,16 +274,19 @@ struct RayCaster {
     }
     // Without the grid every sample; with it the samples past the grid's edge, if rounding left any.
     for (; k < k1; ++k) {
-      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies)) return false;
+      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, nullptr)) return false;
     }
     return true;
   }
 
-  // Sample k of march_local: fetch, classify, composite. False once the ray has terminated.
+  // Sample k of march_local: fetch, classify, composite. False once the ray has terminated. `mask`
+  // (optional): the sample is left out, not fetched, where its trilinear cell's bit is clear (exact:
+  // it would composite nothing).
   SL_HOST_DEVICE SL_INLINE bool take_sample(const Ray& ray, float t_entry, int k, RayAccum& acc, SampleContext& ctx,
-                                            float& clear_v, bool lod_varies) const {
+                                            float& clear_v, bool lod_varies, const VoxelMaskView* mask) const {
     const float t = t_entry + float(k) * p.dt;
     const vec3 pos = ray.at(t);
+    if (mask && !mask->visible(pos)) return true;
     if (lod_varies) ctx.level = p.lod.level_at(t);
     const float v = value_at(pos, ctx);
     ++acc.samples;

@@ -98,6 +98,26 @@ SL_HOST_DEVICE SL_INLINE float trilerp(const T* r00, const T* r01, const T* r10,
   return c0 + fz * (c1 - c0);
 }
 
+// Continuous voxel coordinate of world point p (voxel centres at integers), clamped to the volume:
+// the trilinear cell of the sample is int() of it (u >= 0, so int() == floor). glm::clamp's order of
+// comparisons (min(max(u, 0), dims - 1)), spelled out: glm's clamp was an out-of-line call per sample.
+// DenseGrid::sample and the voxel mask (core/fine_occupancy.h) both take the cell from here, so they
+// agree on it bit for bit.
+// `hi` is vec3(dims - 1), which a caller may hold precomputed (the conversions cost about as much as
+// the clamp).
+SL_HOST_DEVICE SL_INLINE vec3 clamped_voxel_coord(const vec3& p, const vec3& inv_spacing, const vec3& hi) {
+  const vec3 u = p * inv_spacing - 0.5f;
+  // Per component by name: a loop over u[a] kept glm's run-time indexing (about 30 instructions).
+  const auto clamp = [](float x, float h) {
+    x = x < 0.0f ? 0.0f : x;
+    return h < x ? h : x;
+  };
+  return vec3(clamp(u.x, hi.x), clamp(u.y, hi.y), clamp(u.z, hi.z));
+}
+SL_HOST_DEVICE SL_INLINE vec3 clamped_voxel_coord(const vec3& p, const vec3& inv_spacing, const ivec3& dims) {
+  return clamped_voxel_coord(p, inv_spacing, vec3(dims - 1));
+}
+
 // Dense volume of element type T, x fastest. Plain data, copyable to a device.
 template <class T>
 struct DenseGrid {
@@ -115,8 +135,7 @@ struct DenseGrid {
   // Trilinear sample at world position p (kPath: see TrilerpPath).
   template <TrilerpPath kPath = TrilerpPath::Fast>
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p) const {
-    vec3 u = p * inv_spacing - 0.5f;  // continuous voxel coordinate, voxel centres at integers
-    u = glm::clamp(u, vec3(0.0f), vec3(dims - 1));
+    const vec3 u = clamped_voxel_coord(p, inv_spacing, dims);
     const int x0 = int(u.x), y0 = int(u.y), z0 = int(u.z);  // u >= 0, so int() == floor
     const float fx = u.x - float(x0), fy = u.y - float(y0), fz = u.z - float(z0);
     const std::int64_t sx = dims.x, sxy = std::int64_t(dims.x) * dims.y;

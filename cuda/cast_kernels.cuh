@@ -177,6 +177,10 @@ class FrameInputs {
       fine_.upload(skip.fine.bits, skip.fine.word_count(), stream);
       skip.fine.bits = fine_.get();
     }
+    if (skip.fine.voxels.bits) {
+      voxels_.upload(skip.fine.voxels.bits, skip.fine.voxels.word_count(), stream);
+      skip.fine.voxels.bits = voxels_.get();
+    }
   }
 
  private:
@@ -200,7 +204,7 @@ class FrameInputs {
   DeviceBuffer<std::uint32_t> bits_, offsets_, counts_;
   DeviceBuffer<RayEvent> events_;
   DeviceBuffer<SkipOctreeNode> nodes_;
-  DeviceBuffer<std::uint64_t> fine_;
+  DeviceBuffer<std::uint64_t> fine_, voxels_;
 };
 
 // Launches the method's kernel. kOctree = false leaves the octree kernel out (the out-of-core path

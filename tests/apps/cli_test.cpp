@@ -368,6 +368,31 @@ TEST(Cli, FineCellsKeepTheImageAndSkipSamples) {
   expect_one_line_error("render --fine-cell 6 --out " + (dir / "bad").string(), "--fine-cell");
 }
 
+// --voxel-mask (on by default) fetches fewer samples inside the fine cells, never changes the image.
+TEST(Cli, VoxelMaskKeepsTheImageAndFetchesFewerSamples) {
+  const auto dir = test::scratch_dir();
+  std::vector<Image> frames;
+  std::vector<double> samples;
+  for (const char* mode : {"dvr", "labels"}) {
+    for (const char* on : {"off", "on"}) {
+      const std::string out = (dir / (std::string(mode) + on)).string();
+      const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --enable fraction:0.3:2 --mode " +
+                                                     std::string(mode) + " --voxel-mask " + on + " --out " + out);
+      ASSERT_EQ(r.exit_code, 0) << r.output;
+      frames.push_back(read_exr(out + ".exr"));
+      double n = 0;
+      for (float s : frames.back().channels.at("samples")) n += s;
+      samples.push_back(n);
+    }
+  }
+  for (std::size_t k = 0; k < frames.size(); k += 2) {
+    EXPECT_EQ(std::memcmp(frames[k].rgba.data(), frames[k + 1].rgba.data(), frames[k].rgba.size() * sizeof(vec4)), 0);
+    EXPECT_EQ(frames[k].channels.at("depth"), frames[k + 1].channels.at("depth"));
+    EXPECT_LT(samples[k + 1], samples[k]);
+  }
+  expect_one_line_error("render --voxel-mask yes --out " + (dir / "bad").string(), "--voxel-mask");
+}
+
 }  // namespace
 }  // namespace sl
 

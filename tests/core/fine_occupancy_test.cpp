@@ -5,7 +5,10 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <stdexcept>
+#include <type_traits>
 
 #include "core/block_metadata.h"
 #include "core/culling.h"
@@ -74,6 +77,13 @@ RC_GTEST_PROP(FineOccupancyProperty, SkippingClearCellsChangesNoRay, (std::uint6
   FineOccupancy fine;
   fine.classify(cells, cull);
   const FineOccupancyView fv = fine.view();
+  // And with the voxel mask inside the occupied cells (DVR and labels modes).
+  FineOccupancyView fm = fv;
+  VoxelMask mask;
+  if (mode != RenderMode::Mip) {
+    mask.build(sc.vol.view(), &lv, cull);
+    fm.voxels = mask.view();
+  }
 
   const float step = r.uni(0.2f, 1.5f);
   RayCaster<DenseSampler<std::uint8_t, std::uint16_t>> caster;
@@ -106,17 +116,135 @@ RC_GTEST_PROP(FineOccupancyProperty, SkippingClearCellsChangesNoRay, (std::uint6
     // A random sub-span, as a segment list hands the caster.
     const int k0 = int(r.next() % std::uint64_t(k_end + 1));
     const int k1 = k0 + int(r.next() % std::uint64_t(k_end - k0 + 1));
-    RayAccum plain, skipped;
+    RayAccum plain, skipped, masked;
     caster.march(ray, t0, k0, k1, plain);
     caster.march(ray, t0, k0, k1, skipped, false, &fv);
-    RC_ASSERT(std::memcmp(&plain.color, &skipped.color, sizeof(vec3)) == 0);
-    RC_ASSERT(std::memcmp(&plain.alpha, &skipped.alpha, sizeof(float)) == 0);
-    RC_ASSERT(plain.mip_any == skipped.mip_any);
-    if (plain.mip_any) RC_ASSERT(plain.mip_max == skipped.mip_max);
-    RC_ASSERT(plain.useful_samples == skipped.useful_samples);
-    RC_ASSERT(plain.done == skipped.done);
+    caster.march(ray, t0, k0, k1, masked, false, &fm);
+    for (const RayAccum* a : {&skipped, &masked}) {
+      RC_ASSERT(std::memcmp(&plain.color, &a->color, sizeof(vec3)) == 0);
+      RC_ASSERT(std::memcmp(&plain.alpha, &a->alpha, sizeof(float)) == 0);
+      RC_ASSERT(std::memcmp(&plain.hit_t, &a->hit_t, sizeof(float)) == 0);
+      RC_ASSERT(plain.mip_any == a->mip_any);
+      if (plain.mip_any) RC_ASSERT(plain.mip_max == a->mip_max);
+      RC_ASSERT(plain.useful_samples == a->useful_samples);
+      RC_ASSERT(plain.done == a->done);
+    }
     RC_ASSERT(skipped.samples <= plain.samples);
+    RC_ASSERT(masked.samples <= skipped.samples);
+    // Every sample the mask leaves out was one that contributed nothing.
+    RC_ASSERT(masked.samples >= masked.useful_samples);
   }
+}
+
+// The voxel mask's bit of every trilinear cell is classify_block's test of the cell's own metadata:
+// the range and labels of the (up to) 8 voxels a sample in it blends, clamped at the faces as
+// DenseGrid::sample clamps; for u8 and u16 volumes, with and without labels, DVR and labels modes.
+template <class T>
+void check_mask_is_the_cells_culling_test(Rng& r) {
+  RandomScene sc(r);
+  VolumeDesc d = sc.desc;
+  d.type = std::is_same_v<T, std::uint8_t> ? VoxelType::U8 : VoxelType::U16;
+  Volume vol(d);
+  const float scale = std::is_same_v<T, std::uint8_t> ? 1.0f : 200.0f;  // u16: values up to ~53,000
+  for (int z = 0; z < d.dims.z; ++z)
+    for (int y = 0; y < d.dims.y; ++y)
+      for (int x = 0; x < d.dims.x; ++x) vol.set(x, y, z, sc.vol.value(x, y, z) * scale);
+  const float cut = r.uni(0.0f, 250.0f) * scale;
+  const TransferFunction tf({{0.0f, vec4(0.0f)}, {cut, vec4(0.0f)}, {cut + 0.5f, vec4(0.5f)}, {255.0f * scale, vec4(1.0f)}});
+  CullParams cull;
+  cull.mode = r.next() % 2 ? RenderMode::Dvr : RenderMode::Labels;
+  cull.tf = &tf;
+  cull.enabled = sc.use_labels || cull.mode == RenderMode::Labels ? &sc.enabled : nullptr;
+  const VolumeView lv = sc.lab.view();
+  VoxelMask mask;
+  mask.build(vol.view(), &lv, cull);
+  const VoxelMaskView m = mask.view();
+  std::size_t set = 0;
+  for (int z = 0; z < d.dims.z; ++z)
+    for (int y = 0; y < d.dims.y; ++y)
+      for (int x = 0; x < d.dims.x; ++x) {
+        BlockMetadata md;
+        md.computed = true;
+        md.has_labels = true;
+        md.min = 1e30f;
+        md.max = -1e30f;
+        for (int c = 0; c < 8; ++c) {
+          const int vx = std::min(x + (c & 1), d.dims.x - 1), vy = std::min(y + ((c >> 1) & 1), d.dims.y - 1);
+          const int vz = std::min(z + ((c >> 2) & 1), d.dims.z - 1);
+          md.min = std::min(md.min, vol.value(vx, vy, vz));
+          md.max = std::max(md.max, vol.value(vx, vy, vz));
+          md.labels.push_back(sc.lab.label(vx, vy, vz));
+        }
+        std::sort(md.labels.begin(), md.labels.end());
+        md.labels.erase(std::unique(md.labels.begin(), md.labels.end()), md.labels.end());
+        const bool want = classify_block(md, cull) != OccupancyClass::Empty;
+        // The cell's centre point, through the view's own lookup.
+        const vec3 p = (vec3(x, y, z) + 1.0f) * d.spacing;
+        const std::size_t row = std::size_t(z) * std::size_t(d.dims.y) + std::size_t(y);
+        const bool bit = ((m.bits[row * std::size_t(m.row_words) + std::size_t(x >> 6)] >> (x & 63)) & 1u) != 0u;
+        RC_ASSERT(bit == want);
+        if (x + 1 < d.dims.x && y + 1 < d.dims.y && z + 1 < d.dims.z) RC_ASSERT(m.visible(p) == want);
+        set += want ? 1u : 0u;
+      }
+  RC_ASSERT(mask.set_cells() == set);
+}
+
+RC_GTEST_PROP(FineOccupancyProperty, VoxelMaskBitIsTheCullingTestOfTheCellU8, (std::uint64_t seed)) {
+  Rng r{seed};
+  check_mask_is_the_cells_culling_test<std::uint8_t>(r);
+}
+
+RC_GTEST_PROP(FineOccupancyProperty, VoxelMaskBitIsTheCullingTestOfTheCellU16, (std::uint64_t seed)) {
+  Rng r{seed};
+  check_mask_is_the_cells_culling_test<std::uint16_t>(r);
+}
+
+// A clear bit holds for any point of its cell: a sample there is transparent or its label is off.
+RC_GTEST_PROP(FineOccupancyProperty, SamplesInClearVoxelCellsContributeNothing, (std::uint64_t seed)) {
+  Rng r{seed};
+  RandomScene sc(r);
+  CullParams cull;
+  cull.tf = &sc.tf;
+  cull.enabled = sc.use_labels ? &sc.enabled : nullptr;
+  const VolumeView lv = sc.lab.view();
+  VoxelMask mask;
+  mask.build(sc.vol.view(), &lv, cull);
+  const VoxelMaskView m = mask.view();
+  const DenseGrid<std::uint8_t> iv{sc.vol.as<std::uint8_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  const DenseGrid<std::uint16_t> lg{sc.lab.as<std::uint16_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  const TransferFunctionView tv = sc.tf.view(1.0f);
+  const vec3 ext = sc.desc.extent();
+  int clear = 0;
+  for (int i = 0; i < 2000; ++i) {
+    const vec3 p = vec3(r.uni(0.0f, 1.0f), r.uni(0.0f, 1.0f), r.uni(0.0f, 1.0f)) * ext;
+    if (m.visible(p)) continue;
+    ++clear;
+    const float a = tv.alpha_at(tv.coord(iv.sample(p)));
+    const bool label_on = sc.enabled.enabled(lg.label_at(p));
+    RC_ASSERT(!(a > 0.0f) || (sc.use_labels && !label_on));
+  }
+  RC_TAG(clear > 0 ? "some clear" : "none clear");
+}
+
+TEST(VoxelMask, OnlyU8AndU16VolumesAndDvrOrLabels) {
+  VolumeDesc d;
+  d.dims = ivec3(4);
+  d.type = VoxelType::F32;
+  const Volume f(d);
+  EXPECT_FALSE(VoxelMask::supported(f.view()));
+  d.type = VoxelType::U16;
+  const Volume u(d);
+  EXPECT_TRUE(VoxelMask::supported(u.view()));
+  CullParams cull;
+  cull.mode = RenderMode::Iso;
+  VoxelMask m;
+  EXPECT_THROW(m.build(u.view(), nullptr, cull), std::logic_error);
+  EXPECT_THROW(m.build(f.view(), nullptr, CullParams{}), std::logic_error);
+  // No transfer function: every cell is visible; rows padded to whole words.
+  m.build(u.view(), nullptr, CullParams{});
+  EXPECT_EQ(m.set_cells(), 64u);
+  EXPECT_EQ(m.view().row_words, 1);
+  EXPECT_EQ(m.bytes(), 16u * 8u);
 }
 
 // The margin the walk relies on: points up to (almost) half a voxel outside a clear cell, in the
