@@ -119,6 +119,7 @@ void VoxelMask::build(const VolumeView& volume, const VolumeView* labels, const 
   view_ = VoxelMaskView{};
   view_.dims = d;
   view_.row_words = (d.x + 63) / 64;
+  view_.plane_words = view_.row_words * d.y;
   view_.inv_spacing = 1.0f / volume.spacing;
   view_.max_coord = vec3(d - 1);
   bits_.assign(view_.word_count(), 0u);

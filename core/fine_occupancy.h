@@ -38,6 +38,7 @@ struct VoxelMaskView {
   const std::uint64_t* bits = nullptr;  // null: no mask (every sample is fetched)
   ivec3 dims{0, 0, 0};                  // the volume's (and the cells') dims
   int row_words = 0;                    // 64-bit words per row of cells: (dims.x + 63) / 64
+  int plane_words = 0;                  // per z-plane of cells: row_words * dims.y
   vec3 inv_spacing{1.0f};
   vec3 max_coord{0.0f};                 // vec3(dims - 1), for clamped_voxel_coord
 
@@ -46,14 +47,17 @@ struct VoxelMaskView {
     return std::size_t(row_words) * std::size_t(dims.y) * std::size_t(dims.z);
   }
   // The bit of the trilinear cell holding world point p.
-  SL_HOST_DEVICE SL_INLINE bool visible(const vec3& p) const {
-    const vec3 u = clamped_voxel_coord(p, inv_spacing, max_coord);
+  SL_HOST_DEVICE SL_INLINE bool visible(const vec3& p) const { return visible_coord(coord(p)); }
+  // The same in two steps: the sample's clamped voxel coordinate (which DenseGrid::sample_coord
+  // blends from, when the mask was built from that grid's volume), and its cell's bit.
+  SL_HOST_DEVICE SL_INLINE vec3 coord(const vec3& p) const { return clamped_voxel_coord(p, inv_spacing, max_coord); }
+  SL_HOST_DEVICE SL_INLINE bool visible_coord(const vec3& u) const {
     const int x = int(u.x), y = int(u.y), z = int(u.z);
-    const std::size_t row = std::size_t(z) * std::size_t(dims.y) + std::size_t(y);
-    return ((bits[row * std::size_t(row_words) + std::size_t(x >> 6)] >> (x & 63)) & 1u) != 0u;
+    const std::int64_t w = std::int64_t(z) * plane_words + std::int64_t(y * row_words + (x >> 6));
+    return ((bits[w] >> (x & 63)) & 1u) != 0u;
   }
 };
-static_assert(sizeof(VoxelMaskView) == 48, "VoxelMaskView is uploaded to devices as is");
+static_assert(sizeof(VoxelMaskView) == 56, "VoxelMaskView is uploaded to devices as is");
 
 struct FineOccupancyView {
   const std::uint64_t* bits = nullptr;  // null: no fine grid (every cell counts as occupied)
@@ -93,7 +97,7 @@ struct FineOccupancyView {
     return inv;
   }
 };
-static_assert(sizeof(FineOccupancyView) == 96, "FineOccupancyView is uploaded to devices as is");
+static_assert(sizeof(FineOccupancyView) == 104, "FineOccupancyView is uploaded to devices as is");
 
 // The cells a ray crosses, in order: a 3D DDA (Amanatides & Woo 1987) that steps to the neighbour
 // across the nearest exit plane, so a cell costs a comparison and one plane distance instead of a
@@ -107,6 +111,7 @@ struct FineCellWalk {
   std::int64_t index;  // linear index of `cell`
   vec3 t_exit;         // ray parameter of the exit plane per axis (the largest float where step is 0)
   vec3 inv_dir;
+  std::int64_t step_y, step_z;  // change of `index` for a step in y and in z
 
   SL_HOST_DEVICE SL_INLINE FineCellWalk(const FineOccupancyView& f, const Ray& r, const vec3& p)
       : cell(f.cell_of(p)), index(f.linear_index(cell)), inv_dir(FineOccupancyView::inverse_direction(r)) {
@@ -114,6 +119,8 @@ struct FineCellWalk {
       step[a] = inv_dir[a] > 0.0f ? 1 : (inv_dir[a] < 0.0f ? -1 : 0);
       t_exit[a] = plane_t(float(step[a] > 0 ? cell[a] + 1 : cell[a]) * f.cell_size[a], r.origin[a], inv_dir[a]);
     }
+    step_y = step.y * std::int64_t(f.cells.x);
+    step_z = step.z * std::int64_t(f.cells.x) * f.cells.y;
   }
 
   // Where the ray leaves the current cell.
@@ -135,13 +142,13 @@ struct FineCellWalk {
       if (step.y == 0) return false;
       cell.y += step.y;
       if (cell.y < 0 || cell.y >= f.cells.y) return false;
-      index += step.y * std::int64_t(f.cells.x);
+      index += step_y;
       t_exit.y = plane_t(float(step.y > 0 ? cell.y + 1 : cell.y) * f.cell_size.y, r.origin.y, inv_dir.y);
     } else {
       if (step.z == 0) return false;
       cell.z += step.z;
       if (cell.z < 0 || cell.z >= f.cells.z) return false;
-      index += step.z * std::int64_t(f.cells.x) * f.cells.y;
+      index += step_z;
       t_exit.z = plane_t(float(step.z > 0 ? cell.z + 1 : cell.z) * f.cell_size.z, r.origin.z, inv_dir.z);
     }
     return true;

@@ -56,6 +56,10 @@ struct DenseSampler {
   DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
 
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
+  // From the clamped voxel coordinate the voxel mask computed (its volume is this one; take_sample).
+  SL_HOST_DEVICE SL_INLINE float sample_coord(const vec3& u, const SampleContext&) const {
+    return volume.sample_coord(u);
+  }
   // Voxel v (clamped) of the one level: exact iso's cell corners without a trilinear blend.
   SL_HOST_DEVICE SL_INLINE float voxel(const ivec3& v, const SampleContext&) const { return volume.voxel_clamped(v); }
   SL_HOST_DEVICE SL_INLINE std::uint32_t label_at(const vec3& p, const SampleContext&) const {
@@ -286,9 +290,21 @@ struct RayCaster {
                                             float& clear_v, bool lod_varies, const VoxelMaskView* mask) const {
     const float t = t_entry + float(k) * p.dt;
     const vec3 pos = ray.at(t);
-    if (mask && !mask->visible(pos)) return true;
-    if (lod_varies) ctx.level = p.lod.level_at(t);
-    const float v = value_at(pos, ctx);
+    float v;
+    if (mask) {
+      // The mask's coordinate is the sampler's (the in-core renderer builds the mask from the
+      // sampled volume, and mask only at level 0): a dense sampler blends from it directly.
+      const vec3 u = mask->coord(pos);
+      if (!mask->visible_coord(u)) return true;
+      if constexpr (requires { volume.sample_coord(u, ctx); }) {
+        v = volume.sample_coord(u, ctx);
+      } else {
+        v = value_at(pos, ctx);
+      }
+    } else {
+      if (lod_varies) ctx.level = p.lod.level_at(t);
+      v = value_at(pos, ctx);
+    }
     ++acc.samples;
     switch (p.mode) {
       // Opacity first: the label fetch and the colour are read only for samples that can

@@ -106,13 +106,16 @@ SL_HOST_DEVICE SL_INLINE float trilerp(const T* r00, const T* r01, const T* r10,
 // `hi` is vec3(dims - 1), which a caller may hold precomputed (the conversions cost about as much as
 // the clamp).
 SL_HOST_DEVICE SL_INLINE vec3 clamped_voxel_coord(const vec3& p, const vec3& inv_spacing, const vec3& hi) {
-  const vec3 u = p * inv_spacing - 0.5f;
   // Per component by name: a loop over u[a] kept glm's run-time indexing (about 30 instructions).
+  // The comparisons are in the operand order of SSE's maxss / minss, so each bound is one instruction
+  // (glm's order is not: -0 and NaN differ). Values are those of glm::clamp except that -0 becomes +0
+  // (the same cell and blend) and a NaN coordinate becomes 0 (int(NaN) would be undefined).
   const auto clamp = [](float x, float h) {
-    x = x < 0.0f ? 0.0f : x;
-    return h < x ? h : x;
+    x = 0.0f < x ? x : 0.0f;
+    return x < h ? x : h;
   };
-  return vec3(clamp(u.x, hi.x), clamp(u.y, hi.y), clamp(u.z, hi.z));
+  return vec3(clamp(p.x * inv_spacing.x - 0.5f, hi.x), clamp(p.y * inv_spacing.y - 0.5f, hi.y),
+              clamp(p.z * inv_spacing.z - 0.5f, hi.z));
 }
 SL_HOST_DEVICE SL_INLINE vec3 clamped_voxel_coord(const vec3& p, const vec3& inv_spacing, const ivec3& dims) {
   return clamped_voxel_coord(p, inv_spacing, vec3(dims - 1));
@@ -135,7 +138,12 @@ struct DenseGrid {
   // Trilinear sample at world position p (kPath: see TrilerpPath).
   template <TrilerpPath kPath = TrilerpPath::Fast>
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p) const {
-    const vec3 u = clamped_voxel_coord(p, inv_spacing, dims);
+    return sample_coord<kPath>(clamped_voxel_coord(p, inv_spacing, dims));
+  }
+  // The same from the clamped voxel coordinate u of the sample (clamped_voxel_coord), for a caller
+  // that has it already (the voxel mask's test computes it).
+  template <TrilerpPath kPath = TrilerpPath::Fast>
+  SL_HOST_DEVICE SL_INLINE float sample_coord(const vec3& u) const {
     const int x0 = int(u.x), y0 = int(u.y), z0 = int(u.z);  // u >= 0, so int() == floor
     const float fx = u.x - float(x0), fy = u.y - float(y0), fz = u.z - float(z0);
     const std::int64_t sx = dims.x, sxy = std::int64_t(dims.x) * dims.y;
