@@ -88,6 +88,10 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "on|off: inside occupied fine cells, skip the samples whose 2x2x2 voxels cannot contribute (in core, "
                "u8/u16 volumes, dvr and labels, trilinear); the image is the same, fewer samples are fetched")
       ->capture_default_str();
+  c.add_option("--simd", o.simd,
+               "on|off: the CPU backend takes DVR samples eight at a time with AVX2 where the CPU has it (u8/u16, "
+               "unlit, trilinear); the image is the same, off samples one by one")
+      ->capture_default_str();
   c.add_flag("--ert", o.ert, "Early ray termination at opacity 0.99");
   c.add_flag("--shade", o.lighting.enabled,
              "dvr and labels: Blinn-Phong lighting with a headlight on the gradient (VTK's model and defaults; "
@@ -166,6 +170,8 @@ CheckedOptions check_render_options(const RenderOptions& o) {
     throw InputError("--voxel-mask", "must be on or off, not '" + o.voxel_mask + "'");
   }
   rs.voxel_mask = o.voxel_mask == "on";
+  if (o.simd != "on" && o.simd != "off") throw InputError("--simd", "must be on or off, not '" + o.simd + "'");
+  rs.simd = o.simd == "on";
   rs.boxes_overlay = o.boxes;
   if (o.view == "depth-complexity") {
     rs.depth_complexity_view = true;

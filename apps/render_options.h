@@ -34,6 +34,7 @@ struct RenderOptions {
   int block = 16;
   int fine_cell = 4;            // fine occupancy cells inside SparseLeap segments (0: off)
   std::string voxel_mask = "on";  // on|off: the per-sample bit inside occupied fine cells
+  std::string simd = "on";        // on|off: the CPU's eight-sample DVR batch (AVX2 where it runs)
   bool ert = false;
   Lighting lighting;            // --shade --ambient --diffuse --specular --shininess (dvr)
   std::string backend = "auto";

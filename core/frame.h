@@ -27,6 +27,7 @@ struct RenderSettings {
   int block = 16;          // culling block edge in voxels
   int fine_cell = 4;       // fine occupancy cell edge in voxels inside SparseLeap segments (0: off)
   bool voxel_mask = true;  // inside occupied fine cells, a bit per trilinear cell (core/fine_occupancy.h)
+  bool simd = true;        // CPU: DVR samples eight at a time with AVX2 where it runs (core/sample_batch.h)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
   bool depth_complexity_view = false;  // image shows segments (or octree nodes) per ray
   bool boxes_overlay = false;          // draw the occupancy geometry over the image

@@ -1,0 +1,149 @@
+// The AVX2 batch of core/sample_batch.h. Compiled for the baseline target; only the functions marked
+// target("avx2") use AVX2, and they run only where the CPU has it (sample_batch_available). Without
+// "fma" in the target the compiler cannot contract a multiply and an add, so every lane rounds as the
+// scalar code does.
+#include "core/sample_batch.h"
+
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#include <immintrin.h>
+#define SL_BATCH_AVX2 1
+#else
+#define SL_BATCH_AVX2 0
+#endif
+
+namespace sl {
+
+#if SL_BATCH_AVX2
+
+bool sample_batch_available() {
+  static const bool available = __builtin_cpu_supports("avx2");
+  return available;
+}
+
+bool sample_batch_fits(const DvrBatchArgs& a) {
+  constexpr std::int64_t kLimit = std::int64_t(1) << 30;  // 32-bit lane offsets with headroom
+  if (a.elem_size != 1 && a.elem_size != 2) return false;
+  if (a.dims.x <= 0 || a.dims.y <= 0 || a.dims.z <= 0 || a.bytes < 4 || a.bytes > kLimit) return false;
+  if (std::int64_t(a.dims.x) * a.dims.y * a.dims.z * a.elem_size != a.bytes) return false;
+  if (a.mask_bits && std::int64_t(a.mask_plane_words) * a.dims.z * 2 > kLimit) return false;
+  return a.tf_table != nullptr && a.tf_size >= 2;
+}
+
+namespace {
+
+#define SL_AVX2 __attribute__((target("avx2"))) inline
+
+// The clamped voxel coordinate along one axis at the lanes' t (Ray::at, clamped_voxel_coord).
+SL_AVX2 __m256 coord(__m256 t, float o, float d, float inv, float hi) {
+  const __m256 p = _mm256_add_ps(_mm256_set1_ps(o), _mm256_mul_ps(t, _mm256_set1_ps(d)));
+  const __m256 u = _mm256_sub_ps(_mm256_mul_ps(p, _mm256_set1_ps(inv)), _mm256_set1_ps(0.5f));
+  // maxps / minps return the second operand on NaN and on equal zeros: 0 < x ? x : 0, x < h ? x : h.
+  return _mm256_min_ps(_mm256_max_ps(u, _mm256_setzero_ps()), _mm256_set1_ps(hi));
+}
+
+// One x-row of the lanes' cells, blended along x (trilerp): a 4-byte gather at byte offset `o` holds
+// (x0, x0 + 1); the last voxel of a row repeats itself (has_dx clear).
+template <int kElem>
+SL_AVX2 __m256 row(const int* base, __m256i o, __m256i live, __m256i has_dx, __m256 fx) {
+  const __m256i lo_mask = _mm256_set1_epi32(kElem == 1 ? 0xFF : 0xFFFF);
+  const __m256i g = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), base, o, live, 1);
+  const __m256i v0 = _mm256_and_si256(g, lo_mask);
+  const __m256i v1 = _mm256_and_si256(_mm256_srli_epi32(g, 8 * kElem), lo_mask);
+  const __m256 c0 = _mm256_cvtepi32_ps(v0);
+  const __m256 c1 = _mm256_cvtepi32_ps(_mm256_blendv_epi8(v0, v1, has_dx));
+  return _mm256_add_ps(c0, _mm256_mul_ps(fx, _mm256_sub_ps(c1, c0)));
+}
+
+template <int kElem>
+__attribute__((target("avx2"))) int dvr_batch_avx2(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256 kf = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(k), lane));
+  // t = t_entry + float(k) * dt; p = origin + t * dir (Ray::at); u = clamp(p * inv_spacing - 0.5, 0, hi).
+  const __m256 t = _mm256_add_ps(_mm256_set1_ps(a.t_entry), _mm256_mul_ps(kf, _mm256_set1_ps(a.dt)));
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 ux = coord(t, a.origin.x, a.dir.x, a.inv_spacing.x, a.hi.x);
+  const __m256 uy = coord(t, a.origin.y, a.dir.y, a.inv_spacing.y, a.hi.y);
+  const __m256 uz = coord(t, a.origin.z, a.dir.z, a.inv_spacing.z, a.hi.z);
+  const __m256i x0 = _mm256_cvttps_epi32(ux), y0 = _mm256_cvttps_epi32(uy), z0 = _mm256_cvttps_epi32(uz);
+
+  __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);
+  if (a.mask_bits) {
+    // The 64-bit word z * plane + y * row + (x >> 6), bit x & 63, read as its 32-bit half x >> 5 of
+    // the little-endian pair, bit x & 31.
+    const __m256i w = _mm256_add_epi32(
+        _mm256_add_epi32(_mm256_mullo_epi32(z0, _mm256_set1_epi32(2 * a.mask_plane_words)),
+                         _mm256_mullo_epi32(y0, _mm256_set1_epi32(2 * a.mask_row_words))),
+        _mm256_srli_epi32(x0, 5));
+    const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(a.mask_bits),
+                                                      w, live, 4);
+    const __m256i one = _mm256_set1_epi32(1);
+    const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(x0, _mm256_set1_epi32(31))), one);
+    live = _mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one));
+  }
+  const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
+  if (visible == 0) return 0;
+
+  // DenseGrid::sample_coord: the four x-rows of the cell, each one 4-byte gather holding (x0, x0 + 1).
+  const __m256 fx = _mm256_sub_ps(ux, _mm256_cvtepi32_ps(x0));
+  const __m256 fy = _mm256_sub_ps(uy, _mm256_cvtepi32_ps(y0));
+  const __m256 fz = _mm256_sub_ps(uz, _mm256_cvtepi32_ps(z0));
+  const __m256i one = _mm256_set1_epi32(1);
+  const int sx = a.dims.x, sxy = a.dims.x * a.dims.y;
+  const __m256i has_dx = _mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.x), _mm256_add_epi32(x0, one));
+  const __m256i dy = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.y), _mm256_add_epi32(y0, one)),
+                                      _mm256_set1_epi32(sx * kElem));
+  const __m256i dz = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.z), _mm256_add_epi32(z0, one)),
+                                      _mm256_set1_epi32(sxy * kElem));
+  __m256i off = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z0, _mm256_set1_epi32(sxy)),
+                                                  _mm256_mullo_epi32(y0, _mm256_set1_epi32(sx))),
+                                 x0);
+  if constexpr (kElem == 2) off = _mm256_slli_epi32(off, 1);
+  const __m256i last = _mm256_add_epi32(off, _mm256_add_epi32(dy, dz));
+  // A lane whose last row starts within 4 bytes of the end: the gather would read past the volume.
+  if (_mm256_movemask_ps(_mm256_castsi256_ps(
+          _mm256_and_si256(live, _mm256_cmpgt_epi32(last, _mm256_set1_epi32(int(a.bytes - 4)))))) != 0) {
+    return -1;
+  }
+  const int* base = static_cast<const int*>(a.data);
+  const __m256 c00 = row<kElem>(base, off, live, has_dx, fx);
+  const __m256 c01 = row<kElem>(base, _mm256_add_epi32(off, dy), live, has_dx, fx);
+  const __m256 c10 = row<kElem>(base, _mm256_add_epi32(off, dz), live, has_dx, fx);
+  const __m256 c11 = row<kElem>(base, last, live, has_dx, fx);
+  const __m256 c0 = _mm256_add_ps(c00, _mm256_mul_ps(fy, _mm256_sub_ps(c01, c00)));
+  const __m256 c1 = _mm256_add_ps(c10, _mm256_mul_ps(fy, _mm256_sub_ps(c11, c10)));
+  const __m256 v = _mm256_add_ps(c0, _mm256_mul_ps(fz, _mm256_sub_ps(c1, c0)));
+
+  // TransferFunctionView::coord and alpha_at.
+  __m256 x = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_set1_ps(a.tf_vmin)), _mm256_set1_ps(a.tf_inv_step));
+  const __m256 xm = _mm256_min_ps(x, _mm256_set1_ps(float(a.tf_size - 1)));  // x < last ? x : last
+  x = _mm256_and_ps(_mm256_cmp_ps(x, zero, _CMP_GT_OQ), xm);                  // x > 0 ? that : 0 (NaN: 0)
+  const __m256i i = _mm256_min_epi32(_mm256_cvttps_epi32(x), _mm256_set1_epi32(a.tf_size - 2));
+  const __m256 f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(i));
+  const __m256i wi = _mm256_add_epi32(_mm256_slli_epi32(i, 2), _mm256_set1_epi32(3));
+  const __m256 live_ps = _mm256_castsi256_ps(live);
+  const __m256 w0 = _mm256_mask_i32gather_ps(zero, a.tf_table, wi, live_ps, 4);
+  const __m256 w1 = _mm256_mask_i32gather_ps(zero, a.tf_table + 4, wi, live_ps, 4);
+  const __m256 alpha = _mm256_add_ps(w0, _mm256_mul_ps(f, _mm256_sub_ps(w1, w0)));
+
+  _mm256_store_ps(out.v, v);
+  _mm256_store_ps(out.alpha, alpha);
+  _mm256_store_ps(out.f, f);
+  _mm256_store_si256(reinterpret_cast<__m256i*>(out.i), i);
+  return visible;
+}
+
+}  // namespace
+
+int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
+  return a.elem_size == 1 ? dvr_batch_avx2<1>(a, k, n, out) : dvr_batch_avx2<2>(a, k, n, out);
+}
+
+#else
+
+bool sample_batch_available() { return false; }
+bool sample_batch_fits(const DvrBatchArgs&) { return false; }
+int dvr_batch(const DvrBatchArgs&, int, int, DvrBatchOut&) { return -1; }
+
+#endif
+
+}  // namespace sl

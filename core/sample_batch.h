@@ -1,0 +1,54 @@
+// Eight DVR samples at a time on the CPU (AVX2, chosen at run time): positions, clamped voxel
+// coordinates, voxel-mask bits, trilinear blends and the transfer function's opacity of grid samples
+// k .. k+7 of one ray, lane for lane the same IEEE single-precision operations in the same order as the
+// scalar caster (core/sampling.h, core/transfer_function.h; no FMA contraction), so every value is the
+// scalar one bit for bit. The caster then composites the lanes in order (core/raycast.h), so the
+// image is the same with or without it. Host only: the CUDA kernels run the scalar code, one sample per
+// thread step. Where AVX2 is missing (or --simd off) the scalar path runs: that is the fallback.
+#pragma once
+
+#include <cstdint>
+
+#include "core/math.h"
+
+namespace sl {
+
+// What stays fixed over a march of one ray: the ray, the sample grid, the dense volume (u8 or u16),
+// the optional voxel mask (core/fine_occupancy.h) and the transfer function's table.
+struct DvrBatchArgs {
+  const void* data = nullptr;
+  int elem_size = 1;           // 1: u8, 2: u16
+  ivec3 dims{0};
+  vec3 inv_spacing{1.0f};
+  vec3 hi{0.0f};               // vec3(dims - 1)
+  std::int64_t bytes = 0;      // the volume's size in bytes
+  const std::uint64_t* mask_bits = nullptr;  // null: every lane is fetched
+  int mask_row_words = 0;      // 64-bit words
+  int mask_plane_words = 0;
+  vec3 origin{0.0f}, dir{0.0f};
+  float t_entry = 0.0f, dt = 1.0f;
+  const float* tf_table = nullptr;  // vec4 entries, w = opacity
+  int tf_size = 0;
+  float tf_vmin = 0.0f, tf_inv_step = 0.0f;
+};
+
+struct alignas(32) DvrBatchOut {
+  float v[8];      // the trilinear sample
+  float alpha[8];  // the transfer function's opacity at v
+  float f[8];      // the table coordinate (TransferFunctionView::Coord)
+  int i[8];
+};
+
+// True when this CPU runs the AVX2 path (checked once).
+bool sample_batch_available();
+
+// True when a volume of these dims / mask fits the batch's 32-bit offsets (checked once per march).
+bool sample_batch_fits(const DvrBatchArgs& a);
+
+// Samples k .. k+n-1 (1 <= n <= 8) of the ray: the bit of lane j is set when sample k+j was fetched
+// (its voxel-mask bit is set, or there is no mask) and `out` holds its value and opacity; -1 when a
+// lane's voxels reach the volume's last bytes (a 4-byte gather would read past them): the caller
+// takes those samples one by one.
+int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out);
+
+}  // namespace sl

@@ -1,0 +1,244 @@
+// The CPU's eight-sample DVR batch (core/sample_batch.h): lane for lane the scalar sample and opacity,
+// and every ray marched with it equal, bit for bit, to the scalar march (colour, alpha, depth, counts,
+// termination), with and without fine cells and the voxel mask, u8 and u16, over random volumes whose
+// small dims put many samples at the faces and in the volume's last bytes (the scalar fallback).
+#include "core/sample_batch.h"
+
+#include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
+
+#include <cstring>
+
+#include "core/block_metadata.h"
+#include "core/culling.h"
+#include "core/fine_occupancy.h"
+#include "core/raycast.h"
+
+namespace sl {
+namespace {
+
+struct Rng {
+  std::uint64_t s;
+  std::uint64_t next() {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    return s >> 33;
+  }
+  float uni(float a, float b) { return a + (b - a) * float(next() % 100000u) / 100000.0f; }
+};
+
+// A noisy blob (u8 or u16) with label shells, a transfer function with a random cut.
+struct BatchScene {
+  VolumeDesc desc;
+  Volume vol, lab;
+  TransferFunction tf;
+  LabelSet enabled{6};
+  bool use_labels = false;
+
+  BatchScene(Rng& r, VoxelType type) {
+    desc.dims = ivec3(int(2 + r.next() % 30), int(2 + r.next() % 30), int(2 + r.next() % 30));
+    desc.spacing = vec3(r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f));
+    desc.type = type;
+    vol = Volume(desc);
+    VolumeDesc ld = desc;
+    ld.type = VoxelType::U16;
+    lab = Volume(ld);
+    const float scale = type == VoxelType::U16 ? 257.0f : 1.0f;
+    const vec3 c(r.uni(0, float(desc.dims.x)), r.uni(0, float(desc.dims.y)), r.uni(0, float(desc.dims.z)));
+    const float falloff = r.uni(5.0f, 60.0f);
+    for (int z = 0; z < desc.dims.z; ++z)
+      for (int y = 0; y < desc.dims.y; ++y)
+        for (int x = 0; x < desc.dims.x; ++x) {
+          const float d = glm::length(vec3(x, y, z) - c);
+          vol.set(x, y, z, scale * (std::max(0.0f, 255.0f - falloff * d) + float(r.next() % 8)));
+          lab.set(x, y, z, float(int(d / 3.0f) % 6));
+        }
+    const float cut = r.uni(0.0f, 250.0f) * scale;
+    tf = TransferFunction({{0.0f, vec4(0.0f)}, {cut, vec4(0.0f)}, {cut + scale, vec4(0.9f, 0.6f, 0.3f, 0.4f)},
+                           {255.0f * scale, vec4(1.0f)}});
+    use_labels = r.next() % 2 == 0;
+    for (std::uint32_t id = 1; id < 6; ++id) {
+      if (r.next() % 2) enabled.enable(id);
+    }
+  }
+};
+
+template <class T>
+RayCaster<DenseSampler<T, std::uint16_t>> make_caster(const BatchScene& sc, float step, Rng& r) {
+  RayCaster<DenseSampler<T, std::uint16_t>> c;
+  c.p.mode = RenderMode::Dvr;
+  c.p.dt = step * sc.desc.min_spacing();
+  c.p.inv_dt = 1.0f / c.p.dt;
+  c.p.spacing = sc.desc.spacing;
+  c.p.tf = sc.tf.view(step);
+  c.p.label_mask = sc.use_labels;
+  c.p.labels = sc.enabled.view();
+  c.p.ert = r.next() % 2 == 0;
+  c.volume.volume = DenseGrid<T>{sc.vol.as<T>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  c.volume.labels = DenseGrid<std::uint16_t>{sc.lab.as<std::uint16_t>(), sc.desc.dims, 1.0f / sc.desc.spacing};
+  return c;
+}
+
+bool same(const RayAccum& a, const RayAccum& b) {
+  return std::memcmp(&a.color, &b.color, sizeof(vec3)) == 0 && std::memcmp(&a.alpha, &b.alpha, sizeof(float)) == 0 &&
+         std::memcmp(&a.hit_t, &b.hit_t, sizeof(float)) == 0 && a.samples == b.samples &&
+         a.useful_samples == b.useful_samples && a.done == b.done;
+}
+
+template <class T>
+void check_rays(std::uint64_t seed) {
+  if (!sample_batch_available()) return;  // the scalar path is the only one: nothing to compare
+  Rng r{seed};
+  BatchScene sc(r, sizeof(T) == 1 ? VoxelType::U8 : VoxelType::U16);
+  const float step = r.uni(0.1f, 1.5f);
+  auto scalar = make_caster<T>(sc, step, r);
+  scalar.p.simd = false;
+  auto batched = scalar;
+  batched.p.simd = true;
+
+  // Fine cells and the voxel mask of this transfer function and label set.
+  const VolumeView lv = sc.lab.view();
+  const int cell = r.next() % 2 ? 4 : 8;
+  const BlockMetadataTable cells =
+      compute_all_block_metadata(make_block_grid(sc.desc.dims, sc.desc.spacing, cell), sc.vol.view(), &lv);
+  CullParams cull;
+  cull.mode = RenderMode::Dvr;
+  cull.tf = &sc.tf;
+  cull.enabled = sc.use_labels ? &sc.enabled : nullptr;
+  FineOccupancy fine;
+  fine.classify(cells, cull);
+  const FineOccupancyView fv = fine.view();
+  FineOccupancyView fm = fv;
+  VoxelMask mask;
+  mask.build(sc.vol.view(), &lv, cull);
+  fm.voxels = mask.view();
+
+  const vec3 ext = sc.desc.extent();
+  const Box3 vbox{vec3(0.0f), ext};
+  for (int i = 0; i < 20; ++i) {
+    Ray ray;
+    ray.origin = vec3(r.uni(-0.5f, 1.5f), r.uni(-0.5f, 1.5f), r.uni(-0.5f, 1.5f)) * ext;
+    // Targets up to the far faces: samples in the volume's last voxels take the fallback.
+    const vec3 target = vec3(r.uni(0.0f, 1.0f), r.uni(0.0f, 1.0f), r.uni(0.0f, 1.0f)) * ext;
+    vec3 dir = target - ray.origin;
+    if (r.next() % 5 == 0) dir[int(r.next() % 3)] = 0.0f;
+    if (!(glm::length(dir) > 1e-3f)) continue;
+    ray.dir = glm::normalize(dir);
+    const Interval iv = intersect(ray, vbox);
+    const float t0 = iv.t0 > 0.0f ? iv.t0 : 0.0f;
+    if (!(iv.t1 > t0)) continue;
+    const int k_end = sample_index(iv.t1, t0, scalar.p.inv_dt);
+    const int k0 = int(r.next() % std::uint64_t(k_end + 1));
+    const int k1 = k0 + int(r.next() % std::uint64_t(k_end - k0 + 1));
+    const FineOccupancyView* const views[] = {nullptr, &fv, &fm};
+    for (const FineOccupancyView* f : views) {
+      RayAccum a, b;
+      scalar.march(ray, t0, k0, k1, a, false, f);
+      batched.march(ray, t0, k0, k1, b, false, f);
+      RC_ASSERT(same(a, b));
+      // A second span continues the ray as a segment list's next one does.
+      scalar.march(ray, t0, k1, k_end, a, false, f);
+      batched.march(ray, t0, k1, k_end, b, false, f);
+      RC_ASSERT(same(a, b));
+    }
+  }
+}
+
+RC_GTEST_PROP(SampleBatchProperty, MarchEqualsTheScalarMarchU8, (std::uint64_t seed)) { check_rays<std::uint8_t>(seed); }
+RC_GTEST_PROP(SampleBatchProperty, MarchEqualsTheScalarMarchU16, (std::uint64_t seed)) {
+  check_rays<std::uint16_t>(seed);
+}
+
+// Lane for lane: the batch's value, opacity and table coordinate of sample k+j are the scalar caster's
+// (DenseGrid::sample, TransferFunctionView::coord / alpha_at), and without a mask every lane < n is set.
+template <class T>
+void check_lanes(std::uint64_t seed) {
+  if (!sample_batch_available()) return;
+  Rng r{seed};
+  BatchScene sc(r, sizeof(T) == 1 ? VoxelType::U8 : VoxelType::U16);
+  const float step = r.uni(0.1f, 1.5f);
+  auto c = make_caster<T>(sc, step, r);
+  const vec3 ext = sc.desc.extent();
+  Ray ray;
+  ray.origin = vec3(r.uni(-0.5f, 1.5f), r.uni(-0.5f, 1.5f), r.uni(-0.5f, 1.5f)) * ext;
+  const vec3 dir = vec3(r.uni(0.0f, 1.0f), r.uni(0.0f, 1.0f), r.uni(0.0f, 1.0f)) * ext - ray.origin;
+  if (!(glm::length(dir) > 1e-3f)) return;
+  ray.dir = glm::normalize(dir);
+  const float t_entry = r.uni(0.0f, 4.0f);
+  DvrBatchArgs b;
+  b.data = sc.vol.as<T>();
+  b.elem_size = int(sizeof(T));
+  b.dims = sc.desc.dims;
+  b.inv_spacing = 1.0f / sc.desc.spacing;
+  b.hi = vec3(sc.desc.dims - 1);
+  b.bytes = std::int64_t(sc.desc.dims.x) * sc.desc.dims.y * sc.desc.dims.z * b.elem_size;
+  b.origin = ray.origin;
+  b.dir = ray.dir;
+  b.t_entry = t_entry;
+  b.dt = c.p.dt;
+  b.tf_table = &c.p.tf.table[0].x;
+  b.tf_size = c.p.tf.size;
+  b.tf_vmin = c.p.tf.vmin;
+  b.tf_inv_step = c.p.tf.inv_step;
+  RC_ASSERT(sample_batch_fits(b));
+  int fallbacks = 0;
+  for (int k = 0; k < 200; k += 8) {
+    const int n = 1 + int(r.next() % 8);
+    DvrBatchOut o;
+    const int visible = dvr_batch(b, k, n, o);
+    if (visible < 0) {
+      ++fallbacks;
+      continue;
+    }
+    RC_ASSERT(visible == (1 << n) - 1);
+    for (int j = 0; j < n; ++j) {
+      const vec3 pos = ray.at(t_entry + float(k + j) * c.p.dt);
+      const float v = c.volume.volume.sample(pos);
+      const TransferFunctionView::Coord tc = c.p.tf.coord(v);
+      const float a = c.p.tf.alpha_at(tc);
+      RC_ASSERT(std::memcmp(&v, &o.v[j], sizeof(float)) == 0);
+      RC_ASSERT(std::memcmp(&a, &o.alpha[j], sizeof(float)) == 0);
+      RC_ASSERT(tc.i == o.i[j]);
+      RC_ASSERT(std::memcmp(&tc.f, &o.f[j], sizeof(float)) == 0);
+    }
+  }
+  RC_TAG(fallbacks > 0 ? "some fallback" : "no fallback");
+}
+
+RC_GTEST_PROP(SampleBatchProperty, LanesAreTheScalarSamplesU8, (std::uint64_t seed)) { check_lanes<std::uint8_t>(seed); }
+RC_GTEST_PROP(SampleBatchProperty, LanesAreTheScalarSamplesU16, (std::uint64_t seed)) {
+  check_lanes<std::uint16_t>(seed);
+}
+
+// The batch reports lanes whose voxels reach the volume's last bytes instead of gathering past them.
+TEST(SampleBatch, TheLastVoxelFallsBackToTheScalarPath) {
+  if (!sample_batch_available()) GTEST_SKIP() << "this CPU has no AVX2: the scalar path is the only one";
+  VolumeDesc d;
+  d.dims = ivec3(3, 3, 3);
+  Volume v(d);
+  for (int i = 0; i < 27; ++i) v.as<std::uint8_t>()[i] = std::uint8_t(i * 9);
+  const TransferFunction tf({{0.0f, vec4(0.0f)}, {255.0f, vec4(1.0f)}});
+  const TransferFunctionView tv = tf.view(1.0f);
+  DvrBatchArgs b;
+  b.data = v.as<std::uint8_t>();
+  b.dims = d.dims;
+  b.hi = vec3(2.0f);
+  b.bytes = 27;
+  b.dir = vec3(1.0f, 0.0f, 0.0f);
+  b.dt = 0.25f;
+  b.tf_table = &tv.table[0].x;
+  b.tf_size = tv.size;
+  b.tf_vmin = tv.vmin;
+  b.tf_inv_step = tv.inv_step;
+  ASSERT_TRUE(sample_batch_fits(b));
+  DvrBatchOut o;
+  b.origin = vec3(0.0f, 0.5f, 0.5f);  // the first row: far from the end
+  EXPECT_EQ(dvr_batch(b, 0, 8, o), 0xFF);
+  EXPECT_EQ(o.v[0], 0.0f);
+  b.origin = vec3(0.0f, 2.9f, 2.9f);  // the last row: the gather at its last voxels would pass the end
+  EXPECT_EQ(dvr_batch(b, 0, 8, o), -1);
+  b.bytes = 26;  // not the dims' size: refused
+  EXPECT_FALSE(sample_batch_fits(b));
+}
+
+}  // namespace
+}  // namespace sl
