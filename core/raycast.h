@@ -15,7 +15,6 @@
 #include "core/math.h"
 #include "core/ray.h"
 #include "core/render_mode.h"
-#include "core/sample_batch.h"
 #include "core/sampling.h"
 #include "core/shading.h"
 #include "core/transfer_function.h"
@@ -131,14 +130,10 @@ SL_HOST_DEVICE inline vec3 shade_headlight(const vec3& base, const vec3& gradien
   return base * (0.25f + 0.75f * diffuse) + vec3(0.3f * specular);
 }
 
-// The element size of a dense sampler's volume the CPU batch reads (core/sample_batch.h): 1 or 2 for
-// u8 / u16 in core, 0 for every other sampler (which always samples one by one).
+#if !defined(__CUDA_ARCH__)
 template <class Sampler>
-inline constexpr int kBatchElem = 0;
-template <class LabT>
-inline constexpr int kBatchElem<DenseSampler<std::uint8_t, LabT>> = 1;
-template <class LabT>
-inline constexpr int kBatchElem<DenseSampler<std::uint16_t, LabT>> = 2;
+struct BatchMarch;  // core/raycast_batch.h: the CPU's batched DVR march
+#endif
 
 // Per-ray integration over a sampler (DenseSampler in core; the out-of-core sampler reads through the
 // page table and brick cache). The sampler is a template parameter: no virtual call per sample.
@@ -146,6 +141,9 @@ template <class Sampler>
 struct RayCaster {
   CastParams p;
   Sampler volume;
+#if !defined(__CUDA_ARCH__)
+  friend struct BatchMarch<Sampler>;  // takes the samples it does not batch with take_sample
+#endif
 
   SL_HOST_DEVICE SL_INLINE bool visible_label(const vec3& pos, const SampleContext& c) const {
     return !p.label_mask || p.labels.enabled(volume.label_at(pos, c));
@@ -226,12 +224,11 @@ struct RayCaster {
                             bool unknown = false, const FineOccupancyView* fine = nullptr) const {
     if (acc.done) return false;
 #if !defined(__CUDA_ARCH__)
-    if constexpr (kBatchElem<Sampler> > 0) {
+    if constexpr (BatchMarch<Sampler>::kElem > 0) {
       // On the CPU, DVR samples eight at a time where the batch applies (core/sample_batch.h): every
       // value it hands back is the scalar one, and the lanes composite in order.
-      DvrBatchArgs b;
-      const VoxelMaskView* mask = nullptr;
-      if (batch_prepare(ray, t_entry, fine, b, mask)) return march_batched(ray, t_entry, k0, k1, acc, unknown, fine, b, mask);
+      BatchMarch<Sampler> batch(*this);
+      if (batch.prepare(ray, t_entry, fine)) return batch.march(ray, t_entry, k0, k1, acc, unknown, fine);
     }
 #endif
     // The loop works on local copies (of the caster too): through references the compiler must
@@ -302,149 +299,6 @@ struct RayCaster {
     }
     return true;
   }
-
-#if !defined(__CUDA_ARCH__)
-  // Runs shorter than this are sampled one by one (a batch costs about as much as two scalar samples).
-  static constexpr int kBatchMinRun = 2;
-
-  // The batch's inputs for this ray, or false where it does not apply: the scalar path then runs.
-  // DVR without lighting, trilinear, one level (the caller checks), a u8/u16 dense volume, a CPU with
-  // AVX2, and a voxel mask (if any) on the sampled volume's own voxel grid.
-  bool batch_setup(const Ray& ray, float t_entry, DvrBatchArgs& b) const {
-    if (!p.simd || p.mode != RenderMode::Dvr || p.lighting.enabled || p.filter != Filter::Linear) return false;
-    if (!sample_batch_available()) return false;
-    const auto& g = volume.volume;
-    b.data = g.data;
-    b.elem_size = kBatchElem<Sampler>;
-    b.dims = g.dims;
-    b.inv_spacing = g.inv_spacing;
-    b.hi = vec3(g.dims - 1);
-    b.bytes = std::int64_t(g.dims.x) * g.dims.y * g.dims.z * b.elem_size;
-    b.origin = ray.origin;
-    b.dir = ray.dir;
-    b.t_entry = t_entry;
-    b.dt = p.dt;
-    b.tf_table = &p.tf.table[0].x;
-    b.tf_size = p.tf.size;
-    b.tf_vmin = p.tf.vmin;
-    b.tf_inv_step = p.tf.inv_step;
-    return g.data != nullptr && p.tf.table != nullptr && sample_batch_fits(b);
-  }
-
-  // batch_setup and batch_mask for march(): false where the batch does not apply (the scalar march
-  // runs). `mask`: the voxel mask march_local would test (none without fine cells or off level 0).
-  bool batch_prepare(const Ray& ray, float t_entry, const FineOccupancyView* fine, DvrBatchArgs& b,
-                     const VoxelMaskView*& mask) const {
-    if (!p.lod.constant() || !batch_setup(ray, t_entry, b)) return false;
-    mask = fine && fine->enabled() && fine->voxels.enabled() && p.lod.level_at(0.0f) == 0 ? &fine->voxels : nullptr;
-    return batch_mask(mask, b);
-  }
-
-  // march() with the batch: march_local's DVR path (one level), the fine cells' runs and the rest of
-  // the span taken eight samples at a time.
-  bool march_batched(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc_out, bool unknown,
-                     const FineOccupancyView* fine, DvrBatchArgs& b, const VoxelMaskView* mask) const {
-    RayAccum acc = acc_out;
-    SampleContext ctx;
-    ctx.occupancy_unknown = unknown;
-    ctx.level = p.lod.level_at(0.0f);
-    float clear_v = NAN;  // as march_local
-    bool alive;
-    if (fine && fine->enabled() && k0 < k1) {
-      FineCellWalk walk(*fine, ray, ray.at(t_entry + float(k0) * p.dt));
-      alive = batched_walk(ray, t_entry, k0, k1, acc, ctx, clear_v, b, mask, walk, *fine);
-    } else {
-      int k = k0;
-      alive = k1 - k < kBatchMinRun || take_batches(ray, t_entry, k, k1, acc, ctx, clear_v, b, nullptr);
-      for (; alive && k < k1; ++k) alive = take_sample(ray, t_entry, k, acc, ctx, clear_v, false, nullptr);
-    }
-    acc_out = acc;
-    return alive;
-  }
-
-  // The voxel mask (null: none) in the batch's inputs, or false when the batch cannot test it (a
-  // mask on other voxels than the sampled volume's; sample_batch_fits).
-  bool batch_mask(const VoxelMaskView* mask, DvrBatchArgs& b) const {
-    if (!mask) {
-      b.mask_bits = nullptr;
-      return true;
-    }
-    if (!(mask->inv_spacing == b.inv_spacing) || !(mask->max_coord == b.hi)) return false;
-    b.mask_bits = mask->bits;
-    b.mask_row_words = mask->row_words;
-    b.mask_plane_words = mask->plane_words;
-    return sample_batch_fits(b);
-  }
-
-  // march_local's fine-cell walk for the batch: the samples of consecutive occupied cells are one run
-  // (the same samples as the cell-by-cell walk: a cell owns the samples before its exit that the
-  // previous cells did not take), taken in batches; then the samples past the grid's edge, if any.
-  bool batched_walk(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx, float& clear_v,
-                    DvrBatchArgs& b, const VoxelMaskView* mask, FineCellWalk& walk, const FineOccupancyView& fine) const {
-    int run_end = k;  // the pending run of occupied cells: [k, run_end)
-    for (;;) {
-      int next = sample_index(walk.exit(), t_entry, p.inv_dt);
-      next = next < k1 ? next : k1;
-      const bool occupied = fine.occupied_at(walk.index);
-      if (occupied && next > run_end) run_end = next;
-      const bool last = (occupied ? run_end : next) >= k1 || !walk.advance(fine, ray);
-      if ((!occupied || last) && run_end > k) {
-        if (run_end - k >= kBatchMinRun && !take_batches(ray, t_entry, k, run_end, acc, ctx, clear_v, b, mask)) return false;
-        for (; k < run_end; ++k) {
-          if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, false, mask)) return false;
-        }
-      }
-      if (!occupied && next > k) k = next;
-      if (run_end < k) run_end = k;
-      if (last) break;
-    }
-    b.mask_bits = nullptr;
-    if (k1 - k >= kBatchMinRun && !take_batches(ray, t_entry, k, k1, acc, ctx, clear_v, b, nullptr)) return false;
-    for (; k < k1; ++k) {
-      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, false, nullptr)) return false;
-    }
-    return true;
-  }
-
-  // Samples [k, end) in batches of eight (core/sample_batch.h), composited lane by lane in order,
-  // exactly as take_sample would (the same counts, the same early termination). `mask`: the voxel
-  // mask the batch tests (null: every sample is fetched). False once the ray has terminated.
-  bool take_batches(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx, float& clear_v,
-                    DvrBatchArgs& b, const VoxelMaskView* mask) const {
-    DvrBatchOut o;
-    while (k < end) {
-      const int n = end - k < 8 ? end - k : 8;
-      const int visible = dvr_batch(b, k, n, o);
-      if (visible < 0) {
-        // A lane at the volume's last bytes: these samples one by one.
-        for (const int stop = k + n; k < stop; ++k) {
-          if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, false, mask)) return false;
-        }
-        continue;
-      }
-      for (unsigned bits = unsigned(visible); bits != 0u; bits &= bits - 1u) {
-        const int j = __builtin_ctz(bits);
-        ++acc.samples;
-        const float v = o.v[j];
-        if (v == clear_v) continue;
-        const float a = o.alpha[j];
-        if (!(a > 0.0f)) {
-          clear_v = v;
-          continue;
-        }
-        const float t = t_entry + float(k + j) * p.dt;
-        if (p.label_mask && !visible_label(ray.at(t), ctx)) continue;
-        const vec3 rgb = p.tf.rgb_at(TransferFunctionView::Coord{o.i[j], o.f[j]});
-        if (!composite(rgb, a, acc, t)) {
-          k += j + 1;
-          return false;
-        }
-      }
-      k += n;
-    }
-    return true;
-  }
-#endif
 
   // Sample k of march_local: fetch, classify, composite. False once the ray has terminated. `mask`
   // (optional): the sample is left out, not fetched, where its trilinear cell's bit is clear (exact:
@@ -786,3 +640,6 @@ struct RayCaster {
 };
 
 }  // namespace sl
+
+// The CPU's batched march, which march() hands DVR rays to (host only).
+#include "core/raycast_batch.h"

@@ -88,6 +88,7 @@ std::vector<Case> cli_cases() {
       {"cli", "--block", kNothing, r + "--block 7", 1, "--block"},
       {"cli", "--fine-cell", kNothing, r + "--fine-cell 6", 1, "--fine-cell"},
       {"cli", "--voxel-mask", kNothing, r + "--voxel-mask maybe", 1, "--voxel-mask"},
+      {"cli", "--simd", kNothing, r + "--simd maybe", 1, "--simd"},
       {"cli", "--step tiny", kNothing, r + "--step 1e-9", 1, "--step"},
       {"cli", "--step nan", kNothing, r + "--step nan", 1, "--step"},
       {"cli", "--step text", kNothing, r + "--step fast", 2, "--step"},

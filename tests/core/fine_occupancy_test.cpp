@@ -14,52 +14,13 @@
 #include "core/culling.h"
 #include "core/error.h"
 #include "core/raycast.h"
+#include "tests/core/random_scene.h"
 
 namespace sl {
 namespace {
 
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    s = s * 6364136223846793005ull + 1442695040888963407ull;
-    return s >> 33;
-  }
-  float uni(float a, float b) { return a + (b - a) * float(next() % 100000u) / 100000.0f; }
-};
-
-// A blob of intensity with noise and shells of labels around a random centre (as culling_test.cpp).
-struct RandomScene {
-  VolumeDesc desc;
-  Volume vol, lab;
-  TransferFunction tf;
-  LabelSet enabled{6};
-  bool use_labels = false;
-
-  explicit RandomScene(Rng& r) {
-    desc.dims = ivec3(int(5 + r.next() % 30), int(5 + r.next() % 30), int(5 + r.next() % 30));
-    desc.spacing = vec3(r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f));
-    vol = Volume(desc);
-    VolumeDesc ld = desc;
-    ld.type = VoxelType::U16;
-    lab = Volume(ld);
-    const vec3 c(r.uni(0, float(desc.dims.x)), r.uni(0, float(desc.dims.y)), r.uni(0, float(desc.dims.z)));
-    const float falloff = r.uni(10.0f, 60.0f);
-    for (int z = 0; z < desc.dims.z; ++z)
-      for (int y = 0; y < desc.dims.y; ++y)
-        for (int x = 0; x < desc.dims.x; ++x) {
-          const float d = glm::length(vec3(x, y, z) - c);
-          vol.set(x, y, z, std::max(0.0f, 255.0f - falloff * d) + float(r.next() % 8));
-          lab.set(x, y, z, float(int(d / 3.0f) % 6));
-        }
-    const float cut = r.uni(0.0f, 250.0f);
-    tf = TransferFunction({{0.0f, vec4(0.0f)}, {cut, vec4(0.0f)}, {cut + 1.0f, vec4(0.9f, 0.6f, 0.3f, 0.4f)},
-                           {255.0f, vec4(1.0f)}});
-    use_labels = r.next() % 2 == 0;
-    for (std::uint32_t id = 1; id < 6; ++id) {
-      if (r.next() % 2) enabled.enable(id);
-    }
-  }
-};
+using test_scene::RandomScene;
+using test_scene::Rng;
 
 RC_GTEST_PROP(FineOccupancyProperty, SkippingClearCellsChangesNoRay, (std::uint64_t seed)) {
   Rng r{seed};

@@ -13,57 +13,17 @@
 #include "core/culling.h"
 #include "core/fine_occupancy.h"
 #include "core/raycast.h"
+#include "tests/core/random_scene.h"
 
 namespace sl {
 namespace {
 
-struct Rng {
-  std::uint64_t s;
-  std::uint64_t next() {
-    s = s * 6364136223846793005ull + 1442695040888963407ull;
-    return s >> 33;
-  }
-  float uni(float a, float b) { return a + (b - a) * float(next() % 100000u) / 100000.0f; }
-};
-
-// A noisy blob (u8 or u16) with label shells, a transfer function with a random cut.
-struct BatchScene {
-  VolumeDesc desc;
-  Volume vol, lab;
-  TransferFunction tf;
-  LabelSet enabled{6};
-  bool use_labels = false;
-
-  BatchScene(Rng& r, VoxelType type) {
-    desc.dims = ivec3(int(2 + r.next() % 30), int(2 + r.next() % 30), int(2 + r.next() % 30));
-    desc.spacing = vec3(r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f), r.uni(0.5f, 2.0f));
-    desc.type = type;
-    vol = Volume(desc);
-    VolumeDesc ld = desc;
-    ld.type = VoxelType::U16;
-    lab = Volume(ld);
-    const float scale = type == VoxelType::U16 ? 257.0f : 1.0f;
-    const vec3 c(r.uni(0, float(desc.dims.x)), r.uni(0, float(desc.dims.y)), r.uni(0, float(desc.dims.z)));
-    const float falloff = r.uni(5.0f, 60.0f);
-    for (int z = 0; z < desc.dims.z; ++z)
-      for (int y = 0; y < desc.dims.y; ++y)
-        for (int x = 0; x < desc.dims.x; ++x) {
-          const float d = glm::length(vec3(x, y, z) - c);
-          vol.set(x, y, z, scale * (std::max(0.0f, 255.0f - falloff * d) + float(r.next() % 8)));
-          lab.set(x, y, z, float(int(d / 3.0f) % 6));
-        }
-    const float cut = r.uni(0.0f, 250.0f) * scale;
-    tf = TransferFunction({{0.0f, vec4(0.0f)}, {cut, vec4(0.0f)}, {cut + scale, vec4(0.9f, 0.6f, 0.3f, 0.4f)},
-                           {255.0f * scale, vec4(1.0f)}});
-    use_labels = r.next() % 2 == 0;
-    for (std::uint32_t id = 1; id < 6; ++id) {
-      if (r.next() % 2) enabled.enable(id);
-    }
-  }
-};
+using test_scene::RandomScene;
+using test_scene::Rng;
+using test_scene::SceneShape;
 
 template <class T>
-RayCaster<DenseSampler<T, std::uint16_t>> make_caster(const BatchScene& sc, float step, Rng& r) {
+RayCaster<DenseSampler<T, std::uint16_t>> make_caster(const RandomScene& sc, float step, Rng& r) {
   RayCaster<DenseSampler<T, std::uint16_t>> c;
   c.p.mode = RenderMode::Dvr;
   c.p.dt = step * sc.desc.min_spacing();
@@ -88,7 +48,7 @@ template <class T>
 void check_rays(std::uint64_t seed) {
   if (!sample_batch_available()) return;  // the scalar path is the only one: nothing to compare
   Rng r{seed};
-  BatchScene sc(r, sizeof(T) == 1 ? VoxelType::U8 : VoxelType::U16);
+  const RandomScene sc(r, SceneShape{sizeof(T) == 1 ? VoxelType::U8 : VoxelType::U16, 2, 5.0f});
   const float step = r.uni(0.1f, 1.5f);
   auto scalar = make_caster<T>(sc, step, r);
   scalar.p.simd = false;
@@ -154,7 +114,7 @@ template <class T>
 void check_lanes(std::uint64_t seed) {
   if (!sample_batch_available()) return;
   Rng r{seed};
-  BatchScene sc(r, sizeof(T) == 1 ? VoxelType::U8 : VoxelType::U16);
+  const RandomScene sc(r, SceneShape{sizeof(T) == 1 ? VoxelType::U8 : VoxelType::U16, 2, 5.0f});
   const float step = r.uni(0.1f, 1.5f);
   auto c = make_caster<T>(sc, step, r);
   const vec3 ext = sc.desc.extent();

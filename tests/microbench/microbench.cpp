@@ -21,8 +21,10 @@
 //  BM_SampleClassifyComposite/<type>  RayCaster<Sampler>::march over every sample of the rays of the
 //      512² view (no skipping, as method `none`): trilinear sample + TF classify + front-to-back
 //      composite, DVR. u8/u16 intensity (u16: the u8 data × 257, TF over 0..65535); _mask: label mask
-//      on (label fetch for samples with opacity > 0); virtual_u8: the out-of-core VirtualSampler
-//      (page table + brick cache, 32³ bricks, every brick of every level resident). Rays are walked
+//      on (label fetch for samples with opacity > 0); _simd: CastParams::simd on, eight samples at a
+//      time (core/sample_batch.h; where the CPU has AVX2), without it the scalar caster; virtual_u8:
+//      the out-of-core VirtualSampler (page table + brick cache, 32³ bricks, every brick of every
+//      level resident). Rays are walked
 //      tile by tile (16×16, as the renderer; tiles in a scattered order so that a short run still
 //      covers the whole view), 1024 rays per iteration, resuming where the last iteration stopped.
 //      items = samples taken (RayAccum::samples): the "samples/s per core".
@@ -341,7 +343,7 @@ void BM_MergeRules_AddEvent(benchmark::State& state) {
 BENCHMARK(BM_MergeRules_AddEvent)->Name("BM_MergeRules/add_event");
 
 // ---------------------------------------------------------------------------------------------------
-CastParams dvr_params(const TransferFunction& tf, bool mask) {
+CastParams dvr_params(const TransferFunction& tf, bool mask, bool simd = false) {
   const BenchScene& s = scene();
   CastParams p;
   p.mode = RenderMode::Dvr;
@@ -351,6 +353,7 @@ CastParams dvr_params(const TransferFunction& tf, bool mask) {
   p.tf = tf.view(kStep);
   p.label_mask = mask;
   if (mask) p.labels = s.enabled.view();
+  p.simd = simd;
   return p;
 }
 
@@ -385,19 +388,23 @@ void march_rays(benchmark::State& state, const RayCaster<Sampler>& caster) {
   state.counters["useful"] = benchmark::Counter(samples ? double(useful) / double(samples) : 0.0);
 }
 
-template <class T, bool mask>
+template <class T, bool mask, bool simd>
 void BM_SampleDense(benchmark::State& state) {
   const BenchScene& s = scene();
   const Volume& vol = std::is_same_v<T, std::uint8_t> ? *s.intensity : s.intensity_u16;
   const TransferFunction& tf = std::is_same_v<T, std::uint8_t> ? s.tf : s.tf_u16;
-  const RayCaster<DenseSampler<T, std::uint16_t>> caster{dvr_params(tf, mask),
+  const RayCaster<DenseSampler<T, std::uint16_t>> caster{dvr_params(tf, mask, simd),
                                                           {grid_of<T>(vol), grid_of<std::uint16_t>(*s.labels)}};
   march_rays(state, caster);
 }
-BENCHMARK_TEMPLATE2(BM_SampleDense, std::uint8_t, false)->Name("BM_SampleClassifyComposite/u8_dvr");
-BENCHMARK_TEMPLATE2(BM_SampleDense, std::uint8_t, true)->Name("BM_SampleClassifyComposite/u8_dvr_mask");
-BENCHMARK_TEMPLATE2(BM_SampleDense, std::uint16_t, false)->Name("BM_SampleClassifyComposite/u16_dvr");
-BENCHMARK_TEMPLATE2(BM_SampleDense, std::uint16_t, true)->Name("BM_SampleClassifyComposite/u16_dvr_mask");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint8_t, false, false)->Name("BM_SampleClassifyComposite/u8_dvr");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint8_t, false, true)->Name("BM_SampleClassifyComposite/u8_dvr_simd");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint8_t, true, false)->Name("BM_SampleClassifyComposite/u8_dvr_mask");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint8_t, true, true)->Name("BM_SampleClassifyComposite/u8_dvr_mask_simd");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint16_t, false, false)->Name("BM_SampleClassifyComposite/u16_dvr");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint16_t, false, true)->Name("BM_SampleClassifyComposite/u16_dvr_simd");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint16_t, true, false)->Name("BM_SampleClassifyComposite/u16_dvr_mask");
+BENCHMARK_TEMPLATE(BM_SampleDense, std::uint16_t, true, true)->Name("BM_SampleClassifyComposite/u16_dvr_mask_simd");
 
 // The out-of-core path with every brick of every level resident: what page-table translation and
 // brick-slot sampling cost on top of the dense sampler (no misses, no loads).

@@ -1,0 +1,176 @@
+// The CPU's batched march (core/sample_batch.h): RayCaster::march()'s DVR path with the samples taken
+// eight at a time and composited lane by lane in order, so the image, the sample counts and the early
+// termination are those of the scalar march. Host only: the CUDA kernels compile the scalar march.
+// Included by core/raycast.h after RayCaster, whose march() hands a ray to it where it applies.
+#pragma once
+
+#include <cmath>
+#include <cstdint>
+
+#include "core/fine_occupancy.h"
+#include "core/raycast.h"
+#include "core/sample_batch.h"
+
+#if !defined(__CUDA_ARCH__)
+
+namespace sl {
+
+// The element size of a dense sampler's volume the batch reads: 1 or 2 for u8 / u16 in core, 0 for
+// every other sampler (which always samples one by one).
+template <class Sampler>
+inline constexpr int kBatchElem = 0;
+template <class LabT>
+inline constexpr int kBatchElem<DenseSampler<std::uint8_t, LabT>> = 1;
+template <class LabT>
+inline constexpr int kBatchElem<DenseSampler<std::uint16_t, LabT>> = 2;
+
+// One ray's batched march over a caster (a friend of RayCaster: it composites with the caster's own
+// take_sample for the samples it does not batch).
+template <class Sampler>
+struct BatchMarch {
+  static constexpr int kElem = kBatchElem<Sampler>;
+  // Runs shorter than this are sampled one by one (a batch costs about as much as two scalar samples).
+  static constexpr int kMinRun = 2;
+
+  const RayCaster<Sampler>& c;
+  DvrBatchArgs b;
+  const VoxelMaskView* mask = nullptr;  // the voxel mask march_local would test (none: every sample)
+
+  explicit BatchMarch(const RayCaster<Sampler>& caster) : c(caster) {}
+
+  // The batch's inputs for this ray, or false where it does not apply (the scalar march then runs):
+  // DVR without lighting, trilinear, one level, a u8/u16 dense volume, a CPU with AVX2, and a voxel mask
+  // (if any; none without fine cells or off level 0) on the sampled volume's own voxel grid.
+  bool prepare(const Ray& ray, float t_entry, const FineOccupancyView* fine) {
+    const CastParams& p = c.p;
+    if (!p.simd || p.mode != RenderMode::Dvr || p.lighting.enabled || p.filter != Filter::Linear ||
+        !p.lod.constant() || !sample_batch_available()) {
+      return false;
+    }
+    const auto& g = c.volume.volume;
+    if (g.data == nullptr || p.tf.table == nullptr) return false;
+    b.data = g.data;
+    b.elem_size = kElem;
+    b.dims = g.dims;
+    b.inv_spacing = g.inv_spacing;
+    b.hi = vec3(g.dims - 1);
+    b.bytes = std::int64_t(g.dims.x) * g.dims.y * g.dims.z * b.elem_size;
+    b.origin = ray.origin;
+    b.dir = ray.dir;
+    b.t_entry = t_entry;
+    b.dt = p.dt;
+    b.tf_table = &p.tf.table[0].x;
+    b.tf_size = p.tf.size;
+    b.tf_vmin = p.tf.vmin;
+    b.tf_inv_step = p.tf.inv_step;
+    b.mask_bits = nullptr;
+    mask = fine && fine->enabled() && fine->voxels.enabled() && p.lod.level_at(0.0f) == 0 ? &fine->voxels : nullptr;
+    if (mask) {
+      // The batch tests the mask in the volume's voxel coordinates: a mask on other voxels cannot be.
+      if (!(mask->inv_spacing == b.inv_spacing) || !(mask->max_coord == b.hi)) return false;
+      b.mask_bits = mask->bits;
+      b.mask_row_words = mask->row_words;
+      b.mask_plane_words = mask->plane_words;
+    }
+    return sample_batch_fits(b);
+  }
+
+  // march() of samples [k0, k1) after a successful prepare(): the fine cells' runs (or the whole span
+  // without them) in batches. False once the ray has terminated.
+  bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc_out, bool unknown,
+             const FineOccupancyView* fine) {
+    RayAccum acc = acc_out;  // a local, as RayCaster::march
+    SampleContext ctx;
+    ctx.occupancy_unknown = unknown;
+    ctx.level = c.p.lod.level_at(0.0f);
+    float clear_v = NAN;  // as march_local
+    bool alive;
+    if (fine && fine->enabled() && k0 < k1) {
+      FineCellWalk walk(*fine, ray, ray.at(t_entry + float(k0) * c.p.dt));
+      alive = walk_cells(ray, t_entry, k0, k1, acc, ctx, clear_v, walk, *fine);
+    } else {
+      int k = k0;  // no fine cells: no voxel mask either (prepare)
+      alive = take_run(ray, t_entry, k, k1, acc, ctx, clear_v, nullptr);
+    }
+    acc_out = acc;
+    return alive;
+  }
+
+ private:
+  // march_local's fine-cell walk: the samples of consecutive occupied cells are one run (the same
+  // samples as the cell-by-cell walk: a cell owns the samples before its exit that the previous cells
+  // did not take); then the samples past the grid's edge, if any.
+  bool walk_cells(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx, float& clear_v,
+                  FineCellWalk& walk, const FineOccupancyView& fine) {
+    int run_end = k;  // the pending run of occupied cells: [k, run_end)
+    for (;;) {
+      int next = sample_index(walk.exit(), t_entry, c.p.inv_dt);
+      next = next < k1 ? next : k1;
+      const bool occupied = fine.occupied_at(walk.index);
+      if (occupied && next > run_end) run_end = next;
+      const bool last = (occupied ? run_end : next) >= k1 || !walk.advance(fine, ray);
+      if ((!occupied || last) && run_end > k) {
+        if (!take_run(ray, t_entry, k, run_end, acc, ctx, clear_v, mask)) return false;
+      }
+      if (!occupied && next > k) k = next;
+      if (run_end < k) run_end = k;
+      if (last) break;
+    }
+    b.mask_bits = nullptr;  // past the grid: no mask
+    return take_run(ray, t_entry, k, k1, acc, ctx, clear_v, nullptr);
+  }
+
+  // Samples [k, end): in batches where the run is long enough, the rest one by one. `m`: the voxel
+  // mask b tests (null: every sample is fetched), which the samples taken one by one test too.
+  bool take_run(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx, float& clear_v,
+                const VoxelMaskView* m) const {
+    if (end - k >= kMinRun && !take_batches(ray, t_entry, k, end, acc, ctx, clear_v, m)) return false;
+    for (; k < end; ++k) {
+      if (!c.take_sample(ray, t_entry, k, acc, ctx, clear_v, false, m)) return false;
+    }
+    return true;
+  }
+
+  // Samples [k, end) in batches of eight, composited lane by lane in order, exactly as take_sample
+  // would (the same counts, the same early termination). False once the ray has terminated.
+  bool take_batches(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx, float& clear_v,
+                    const VoxelMaskView* m) const {
+    const CastParams& p = c.p;
+    DvrBatchOut o;
+    while (k < end) {
+      const int n = end - k < 8 ? end - k : 8;
+      const int visible = dvr_batch(b, k, n, o);
+      if (visible < 0) {
+        // A lane at the volume's last bytes: these samples one by one.
+        for (const int stop = k + n; k < stop; ++k) {
+          if (!c.take_sample(ray, t_entry, k, acc, ctx, clear_v, false, m)) return false;
+        }
+        continue;
+      }
+      for (unsigned bits = unsigned(visible); bits != 0u; bits &= bits - 1u) {
+        const int j = __builtin_ctz(bits);
+        ++acc.samples;
+        const float v = o.v[j];
+        if (v == clear_v) continue;
+        const float a = o.alpha[j];
+        if (!(a > 0.0f)) {
+          clear_v = v;
+          continue;
+        }
+        const float t = t_entry + float(k + j) * p.dt;
+        if (p.label_mask && !c.visible_label(ray.at(t), ctx)) continue;
+        const vec3 rgb = p.tf.rgb_at(TransferFunctionView::Coord{o.i[j], o.f[j]});
+        if (!c.composite(rgb, a, acc, t)) {
+          k += j + 1;
+          return false;
+        }
+      }
+      k += n;
+    }
+    return true;
+  }
+};
+
+}  // namespace sl
+
+#endif  // !__CUDA_ARCH__
