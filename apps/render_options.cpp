@@ -81,8 +81,9 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in [0.001, 64]")->capture_default_str();
   c.add_option("--block", o.block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
   c.add_option("--fine-cell", o.fine_cell,
-               "Fine occupancy cell edge in voxels inside SparseLeap segments (in core): 4 or 8, 0 = off; the "
-               "image is the same, only clear cells' samples are skipped")
+               "Fine occupancy cell edge in voxels inside SparseLeap segments (in core): auto, 4 or 8, 0 = off; "
+               "auto is 8 where the voxel mask applies, else 4. The image is the same, only clear cells' samples "
+               "are skipped")
       ->capture_default_str();
   c.add_option("--voxel-mask", o.voxel_mask,
                "on|off: inside occupied fine cells, skip the samples whose 2x2x2 voxels cannot contribute (in core, "
@@ -164,8 +165,13 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   rs.lighting = o.lighting;
   validate_lighting(o.lighting);
   rs.block = o.block;
-  rs.fine_cell = o.fine_cell;
-  validate_fine_cell(o.fine_cell);
+  if (o.fine_cell == "auto") {
+    rs.fine_cell = kFineCellAuto;
+  } else if (o.fine_cell == "0" || o.fine_cell == "4" || o.fine_cell == "8") {
+    rs.fine_cell = std::stoi(o.fine_cell);
+  } else {
+    throw InputError("--fine-cell", "must be auto, 0 (off), 4 or 8 voxels, not '" + o.fine_cell + "'");
+  }
   if (o.voxel_mask != "on" && o.voxel_mask != "off") {
     throw InputError("--voxel-mask", "must be on or off, not '" + o.voxel_mask + "'");
   }

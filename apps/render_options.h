@@ -32,7 +32,7 @@ struct RenderOptions {
   std::string filter = "linear";
   float step = 0.5f;
   int block = 16;
-  int fine_cell = 4;            // fine occupancy cells inside SparseLeap segments (0: off)
+  std::string fine_cell = "auto";  // fine occupancy cells inside SparseLeap segments: auto, 0 (off), 4, 8
   std::string voxel_mask = "on";  // on|off: the per-sample bit inside occupied fine cells
   std::string simd = "on";        // on|off: the CPU's eight-sample DVR batch (AVX2 where it runs)
   bool ert = false;

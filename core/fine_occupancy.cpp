@@ -17,8 +17,9 @@
 namespace sl {
 
 void validate_fine_cell(int cell) {
-  if (cell != 0 && cell != 4 && cell != 8) {
-    throw InputError("--fine-cell", "fine occupancy cell must be 0 (off), 4 or 8 voxels, not " + std::to_string(cell));
+  if (cell != kFineCellAuto && cell != 0 && cell != 4 && cell != 8) {
+    throw InputError("--fine-cell",
+                     "fine occupancy cell must be auto, 0 (off), 4 or 8 voxels, not " + std::to_string(cell));
   }
 }
 

@@ -25,7 +25,8 @@ struct RenderSettings {
   bool ert = false;
   Lighting lighting;       // dvr, labels: Blinn–Phong with a headlight (--shade; VTK's parameters and defaults)
   int block = 16;          // culling block edge in voxels
-  int fine_cell = 4;       // fine occupancy cell edge in voxels inside SparseLeap segments (0: off)
+  int fine_cell = -1;      // fine occupancy cell edge in voxels inside SparseLeap segments (0: off; -1: auto,
+                           // kFineCellAuto in core/fine_occupancy.h: 8 with the voxel mask, else 4)
   bool voxel_mask = true;  // inside occupied fine cells, a bit per trilinear cell (core/fine_occupancy.h)
   bool simd = true;        // CPU: DVR samples eight at a time with AVX2 where it runs (core/sample_batch.h)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)

@@ -136,7 +136,7 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   } else {
     in.lists = pipeline_.lists(*S.tree, s.method, gen, s.gap_eps * p.dt, st);
   }
-  if (s.method == SkipMethod::SparseLeap && s.fine_cell > 0 && s.mode != RenderMode::Iso) {
+  if (s.method == SkipMethod::SparseLeap && s.fine_cell != 0 && s.mode != RenderMode::Iso) {
     in.fine = fine_occupancy(scene, s, cull, st);
   }
   return in;
@@ -146,14 +146,18 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
                                                  Stats& st) {
   State& S = *state_;
   Timer t;
-  if (!S.fine_metadata || S.fine_cell != s.fine_cell || S.fine_filter != s.filter) {
-    const BlockGrid cells = make_block_grid(scene.volume->dims(), scene.volume->desc().spacing, s.fine_cell);
+  const VolumeView vv = scene.volume->view();
+  const bool mask = s.voxel_mask && s.filter == Filter::Linear &&
+                    (s.mode == RenderMode::Dvr || s.mode == RenderMode::Labels) && VoxelMask::supported(vv);
+  const int cell = resolve_fine_cell(s.fine_cell, mask);
+  if (!S.fine_metadata || S.fine_cell != cell || S.fine_filter != s.filter) {
+    const BlockGrid cells = make_block_grid(scene.volume->dims(), scene.volume->desc().spacing, cell);
     VolumeView lv;
     if (scene.labels) lv = scene.labels->view();
     S.fine_metadata = compute_all_block_metadata(cells, scene.volume->view(), scene.labels ? &lv : nullptr);
     if (s.filter != Filter::Linear) widen_ranges_to_neighbours(*S.fine_metadata);
     st.metadata_computed += S.fine_metadata->blocks.size();
-    S.fine_cell = s.fine_cell;
+    S.fine_cell = cell;
     S.fine_filter = s.filter;
     S.fine[0].valid = S.fine[1].valid = false;
   }
@@ -170,9 +174,7 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
     S.fine_recent = i;
   }
   FineOccupancyView view = S.fine[i].bits.view();
-  const VolumeView vv = scene.volume->view();
-  if (s.voxel_mask && s.filter == Filter::Linear && (s.mode == RenderMode::Dvr || s.mode == RenderMode::Labels) &&
-      VoxelMask::supported(vv)) {
+  if (mask) {
     if (!S.fine[i].voxels_valid) {
       VolumeView lv;
       if (scene.labels) lv = scene.labels->view();

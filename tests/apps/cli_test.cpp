@@ -351,10 +351,10 @@ TEST(Cli, FineCellsKeepTheImageAndSkipSamples) {
   const auto dir = test::scratch_dir();
   std::vector<Image> frames;
   std::vector<double> samples;
-  for (int cell : {0, 4, 8}) {
-    const std::string out = (dir / ("f" + std::to_string(cell))).string();
+  for (const std::string cell : {"0", "4", "8", "auto"}) {
+    const std::string out = (dir / ("f" + cell)).string();
     const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --enable fraction:0.3:2 "
-                                                   "--fine-cell " + std::to_string(cell) + " --out " + out);
+                                                   "--fine-cell " + cell + " --out " + out);
     ASSERT_EQ(r.exit_code, 0) << r.output;
     frames.push_back(read_exr(out + ".exr"));
     double n = 0;
@@ -365,7 +365,10 @@ TEST(Cli, FineCellsKeepTheImageAndSkipSamples) {
     EXPECT_EQ(std::memcmp(frames[k].rgba.data(), frames[0].rgba.data(), frames[0].rgba.size() * sizeof(vec4)), 0);
     EXPECT_LT(samples[k], samples[0]);
   }
+  // auto (the default) is 8³ cells where the voxel mask applies, as here (u8, dvr, trilinear).
+  EXPECT_EQ(samples[3], samples[2]);
   expect_one_line_error("render --fine-cell 6 --out " + (dir / "bad").string(), "--fine-cell");
+  expect_one_line_error("render --fine-cell -1 --out " + (dir / "bad").string(), "--fine-cell");
 }
 
 // --voxel-mask (on by default) fetches fewer samples inside the fine cells, never changes the image.

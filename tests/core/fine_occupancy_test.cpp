@@ -246,6 +246,11 @@ TEST(FineOccupancy, CellSizesAndBits) {
   EXPECT_NO_THROW(validate_fine_cell(8));
   EXPECT_THROW(validate_fine_cell(16), InputError);
   EXPECT_THROW(validate_fine_cell(-4), InputError);
+  EXPECT_NO_THROW(validate_fine_cell(kFineCellAuto));
+  EXPECT_EQ(resolve_fine_cell(kFineCellAuto, true), 8);  // the voxel mask culls sample by sample
+  EXPECT_EQ(resolve_fine_cell(kFineCellAuto, false), 4);
+  EXPECT_EQ(resolve_fine_cell(4, true), 4);
+  EXPECT_EQ(resolve_fine_cell(0, true), 0);
   // One bright voxel in the middle of a dark 16³ volume: only the cells whose dilated footprint
   // holds it are set.
   VolumeDesc d;

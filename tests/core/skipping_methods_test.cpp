@@ -99,7 +99,7 @@ TEST_P(SkippingMethods, ProduceIdenticalImages) {
     frames.push_back(r.render(scene, s));
   }
   // SparseLeap with the fine occupancy grid inside its segments (core/fine_occupancy.h).
-  for (int cell : {4, 8}) {
+  for (int cell : {4, 8, kFineCellAuto}) {
     s.method = SkipMethod::SparseLeap;
     s.fine_cell = cell;
     InCoreRenderer r;
