@@ -266,14 +266,16 @@ struct RayCaster {
     const bool lod_varies = !p.lod.constant();
     if (!lod_varies) ctx.level = p.lod.level_at(0.0f);
     int k = k0;
+    // The per-sample bit of the voxel mask (core/fine_occupancy.h), where it was built for these
+    // inputs: a sample whose trilinear cell cannot contribute is not fetched. A clear fine cell holds
+    // no set bit, so the samples taken are exactly those whose bit is set: what the CPU's batched
+    // march finds without walking the cells (core/raycast_batch.h).
+    const VoxelMaskView* mask = nullptr;
     if constexpr (kFine) {
-      // Inside occupied cells the per-sample bit of the voxel mask (core/fine_occupancy.h), where it
-      // was built for these inputs: a sample whose trilinear cell cannot contribute is not fetched.
-      const VoxelMaskView* mask = fine.voxels.enabled() && !lod_varies && ctx.level == 0 &&
-                                          p.filter == Filter::Linear &&
-                                          (p.mode == RenderMode::Dvr || p.mode == RenderMode::Labels)
-                                      ? &fine.voxels
-                                      : nullptr;
+      mask = fine.voxels.enabled() && !lod_varies && ctx.level == 0 && p.filter == Filter::Linear &&
+                     (p.mode == RenderMode::Dvr || p.mode == RenderMode::Labels)
+                 ? &fine.voxels
+                 : nullptr;
       // Cell by cell: the grid samples of a clear cell are skipped, those of an occupied cell taken.
       // A cell owns the samples before its exit that the previous cells did not take; rounding can
       // leave it none, or hand a sample to its neighbour — within the half-voxel margin either way.
@@ -293,9 +295,10 @@ struct RayCaster {
         }
       }
     }
-    // Without the grid every sample; with it the samples past the grid's edge, if rounding left any.
+    // Without the grid every sample; with it the samples past the grid's edge, if rounding left any
+    // (still under the mask).
     for (; k < k1; ++k) {
-      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, nullptr)) return false;
+      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, mask)) return false;
     }
     return true;
   }

@@ -75,8 +75,10 @@ struct BatchMarch {
     return sample_batch_fits(b);
   }
 
-  // march() of samples [k0, k1) after a successful prepare(): the fine cells' runs (or the whole span
-  // without them) in batches. False once the ray has terminated.
+  // march() of samples [k0, k1) after a successful prepare(). With a voxel mask, every sample of the
+  // span whose mask bit is set — the samples march_local takes (a clear fine cell holds no set bit) —
+  // found eight bits at a time and sampled in full batches; without one, the fine cells' runs (or the
+  // whole span without them) in batches. False once the ray has terminated.
   bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc_out, bool unknown,
              const FineOccupancyView* fine) {
     RayAccum acc = acc_out;  // a local, as RayCaster::march
@@ -85,21 +87,67 @@ struct BatchMarch {
     ctx.level = c.p.lod.level_at(0.0f);
     float clear_v = NAN;  // as march_local
     bool alive;
-    if (fine && fine->enabled() && k0 < k1) {
+    if (mask) {
+      alive = scan_mask(ray, t_entry, k0, k1, acc, ctx, clear_v);
+    } else if (fine && fine->enabled() && k0 < k1) {
       FineCellWalk walk(*fine, ray, ray.at(t_entry + float(k0) * c.p.dt));
       alive = walk_cells(ray, t_entry, k0, k1, acc, ctx, clear_v, walk, *fine);
     } else {
       int k = k0;  // no fine cells: no voxel mask either (prepare)
-      alive = take_run(ray, t_entry, k, k1, acc, ctx, clear_v, nullptr);
+      alive = take_run(ray, t_entry, k, k1, acc, ctx, clear_v);
     }
     acc_out = acc;
     return alive;
   }
 
  private:
-  // march_local's fine-cell walk: the samples of consecutive occupied cells are one run (the same
-  // samples as the cell-by-cell walk: a cell owns the samples before its exit that the previous cells
-  // did not take); then the samples past the grid's edge, if any.
+  // The samples of [k, k1) whose voxel-mask bit is set, eight mask bits at a time; the ones found are
+  // queued and sampled in full batches of eight (the last one partial), composited in order.
+  bool scan_mask(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx, float& clear_v) {
+    alignas(32) int queue[16] = {};
+    int queued = 0;
+    while (k < k1) {
+      queued = dvr_mask_scan(b, k, k1, queue, queued);
+      if (queued >= 8) {
+        if (!take_queued(ray, t_entry, queue, 8, acc, ctx, clear_v)) return false;
+        queued -= 8;
+        for (int j = 0; j < queued; ++j) queue[j] = queue[8 + j];
+      }
+    }
+    return queued == 0 || take_queued(ray, t_entry, queue, queued, acc, ctx, clear_v);
+  }
+
+  // Samples ks[0 .. n-1] (visible under the mask, ascending) in one batch, composited in order.
+  bool take_queued(const Ray& ray, float t_entry, const int* ks, int n, RayAccum& acc, SampleContext& ctx,
+                   float& clear_v) const {
+    DvrBatchOut o;
+    if (dvr_batch_at(b, ks, n, o) < 0) {
+      for (int j = 0; j < n; ++j) {
+        if (!c.take_sample(ray, t_entry, ks[j], acc, ctx, clear_v, false, mask)) return false;
+      }
+      return true;
+    }
+    const CastParams& p = c.p;
+    for (int j = 0; j < n; ++j) {
+      ++acc.samples;
+      const float v = o.v[j];
+      if (v == clear_v) continue;
+      const float a = o.alpha[j];
+      if (!(a > 0.0f)) {
+        clear_v = v;
+        continue;
+      }
+      const float t = t_entry + float(ks[j]) * p.dt;
+      if (p.label_mask && !c.visible_label(ray.at(t), ctx)) continue;
+      const vec3 rgb = p.tf.rgb_at(TransferFunctionView::Coord{o.i[j], o.f[j]});
+      if (!c.composite(rgb, a, acc, t)) return false;
+    }
+    return true;
+  }
+
+  // march_local's fine-cell walk without a voxel mask: the samples of consecutive occupied cells are
+  // one run (the same samples as the cell-by-cell walk: a cell owns the samples before its exit that
+  // the previous cells did not take); then the samples past the grid's edge, if any.
   bool walk_cells(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx, float& clear_v,
                   FineCellWalk& walk, const FineOccupancyView& fine) {
     int run_end = k;  // the pending run of occupied cells: [k, run_end)
@@ -110,31 +158,29 @@ struct BatchMarch {
       if (occupied && next > run_end) run_end = next;
       const bool last = (occupied ? run_end : next) >= k1 || !walk.advance(fine, ray);
       if ((!occupied || last) && run_end > k) {
-        if (!take_run(ray, t_entry, k, run_end, acc, ctx, clear_v, mask)) return false;
+        if (!take_run(ray, t_entry, k, run_end, acc, ctx, clear_v)) return false;
       }
       if (!occupied && next > k) k = next;
       if (run_end < k) run_end = k;
       if (last) break;
     }
-    b.mask_bits = nullptr;  // past the grid: no mask
-    return take_run(ray, t_entry, k, k1, acc, ctx, clear_v, nullptr);
+    return take_run(ray, t_entry, k, k1, acc, ctx, clear_v);
   }
 
-  // Samples [k, end): in batches where the run is long enough, the rest one by one. `m`: the voxel
-  // mask b tests (null: every sample is fetched), which the samples taken one by one test too.
-  bool take_run(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx, float& clear_v,
-                const VoxelMaskView* m) const {
-    if (end - k >= kMinRun && !take_batches(ray, t_entry, k, end, acc, ctx, clear_v, m)) return false;
+  // Samples [k, end), every one fetched: in batches where the run is long enough, the rest one by one.
+  bool take_run(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx,
+                float& clear_v) const {
+    if (end - k >= kMinRun && !take_batches(ray, t_entry, k, end, acc, ctx, clear_v)) return false;
     for (; k < end; ++k) {
-      if (!c.take_sample(ray, t_entry, k, acc, ctx, clear_v, false, m)) return false;
+      if (!c.take_sample(ray, t_entry, k, acc, ctx, clear_v, false, nullptr)) return false;
     }
     return true;
   }
 
   // Samples [k, end) in batches of eight, composited lane by lane in order, exactly as take_sample
   // would (the same counts, the same early termination). False once the ray has terminated.
-  bool take_batches(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx, float& clear_v,
-                    const VoxelMaskView* m) const {
+  bool take_batches(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx,
+                    float& clear_v) const {
     const CastParams& p = c.p;
     DvrBatchOut o;
     while (k < end) {
@@ -143,7 +189,7 @@ struct BatchMarch {
       if (visible < 0) {
         // A lane at the volume's last bytes: these samples one by one.
         for (const int stop = k + n; k < stop; ++k) {
-          if (!c.take_sample(ray, t_entry, k, acc, ctx, clear_v, false, m)) return false;
+          if (!c.take_sample(ray, t_entry, k, acc, ctx, clear_v, false, nullptr)) return false;
         }
         continue;
       }

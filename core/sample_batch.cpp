@@ -54,32 +54,54 @@ SL_AVX2 __m256 row(const int* base, __m256i o, __m256i live, __m256i has_dx, __m
   return _mm256_add_ps(c0, _mm256_mul_ps(fx, _mm256_sub_ps(c1, c0)));
 }
 
-template <int kElem>
-__attribute__((target("avx2"))) int dvr_batch_avx2(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
-  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-  const __m256 kf = _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(k), lane));
-  // t = t_entry + float(k) * dt; p = origin + t * dir (Ray::at); u = clamp(p * inv_spacing - 0.5, 0, hi).
-  const __m256 t = _mm256_add_ps(_mm256_set1_ps(a.t_entry), _mm256_mul_ps(kf, _mm256_set1_ps(a.dt)));
-  const __m256 zero = _mm256_setzero_ps();
-  const __m256 ux = coord(t, a.origin.x, a.dir.x, a.inv_spacing.x, a.hi.x);
-  const __m256 uy = coord(t, a.origin.y, a.dir.y, a.inv_spacing.y, a.hi.y);
-  const __m256 uz = coord(t, a.origin.z, a.dir.z, a.inv_spacing.z, a.hi.z);
-  const __m256i x0 = _mm256_cvttps_epi32(ux), y0 = _mm256_cvttps_epi32(uy), z0 = _mm256_cvttps_epi32(uz);
+// The lanes' sample positions: t = t_entry + float(k) * dt; p = origin + t * dir (Ray::at);
+// u = clamp(p * inv_spacing - 0.5, 0, hi), and the voxel x0 = trunc(u) per axis.
+struct Lanes {
+  __m256 ux, uy, uz;
+  __m256i x0, y0, z0;
+};
 
-  __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n), lane);
-  if (a.mask_bits) {
-    // The 64-bit word z * plane + y * row + (x >> 6), bit x & 63, read as its 32-bit half x >> 5 of
-    // the little-endian pair, bit x & 31.
-    const __m256i w = _mm256_add_epi32(
-        _mm256_add_epi32(_mm256_mullo_epi32(z0, _mm256_set1_epi32(2 * a.mask_plane_words)),
-                         _mm256_mullo_epi32(y0, _mm256_set1_epi32(2 * a.mask_row_words))),
-        _mm256_srli_epi32(x0, 5));
-    const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(a.mask_bits),
-                                                      w, live, 4);
-    const __m256i one = _mm256_set1_epi32(1);
-    const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(x0, _mm256_set1_epi32(31))), one);
-    live = _mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one));
-  }
+SL_AVX2 Lanes lanes_at(const DvrBatchArgs& a, __m256 kf) {
+  const __m256 t = _mm256_add_ps(_mm256_set1_ps(a.t_entry), _mm256_mul_ps(kf, _mm256_set1_ps(a.dt)));
+  Lanes l;
+  l.ux = coord(t, a.origin.x, a.dir.x, a.inv_spacing.x, a.hi.x);
+  l.uy = coord(t, a.origin.y, a.dir.y, a.inv_spacing.y, a.hi.y);
+  l.uz = coord(t, a.origin.z, a.dir.z, a.inv_spacing.z, a.hi.z);
+  l.x0 = _mm256_cvttps_epi32(l.ux);
+  l.y0 = _mm256_cvttps_epi32(l.uy);
+  l.z0 = _mm256_cvttps_epi32(l.uz);
+  return l;
+}
+
+SL_AVX2 __m256i first_lanes(int n) {
+  return _mm256_cmpgt_epi32(_mm256_set1_epi32(n), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+}
+
+SL_AVX2 __m256 consecutive(int k) {
+  return _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(k), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
+}
+
+// The live lanes whose voxel-mask bit is set (VoxelMaskView::visible_coord).
+SL_AVX2 __m256i mask_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live) {
+  // The 64-bit word z * plane + y * row + (x >> 6), bit x & 63, read as its 32-bit half x >> 5 of
+  // the little-endian pair, bit x & 31.
+  const __m256i w = _mm256_add_epi32(
+      _mm256_add_epi32(_mm256_mullo_epi32(l.z0, _mm256_set1_epi32(2 * a.mask_plane_words)),
+                       _mm256_mullo_epi32(l.y0, _mm256_set1_epi32(2 * a.mask_row_words))),
+      _mm256_srli_epi32(l.x0, 5));
+  const __m256i words =
+      _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(a.mask_bits), w, live, 4);
+  const __m256i one = _mm256_set1_epi32(1);
+  const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(l.x0, _mm256_set1_epi32(31))), one);
+  return _mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one));
+}
+
+// Value and opacity of the live lanes; -1 when a lane's last row would read past the volume.
+template <int kElem>
+SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, DvrBatchOut& out) {
+  const __m256 zero = _mm256_setzero_ps();
+  const __m256 ux = l.ux, uy = l.uy, uz = l.uz;
+  const __m256i x0 = l.x0, y0 = l.y0, z0 = l.z0;
   const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
   if (visible == 0) return 0;
 
@@ -132,10 +154,91 @@ __attribute__((target("avx2"))) int dvr_batch_avx2(const DvrBatchArgs& a, int k,
   return visible;
 }
 
+template <int kElem>
+__attribute__((target("avx2"))) int dvr_batch_avx2(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
+  const Lanes l = lanes_at(a, consecutive(k));
+  const __m256i live = first_lanes(n);
+  return sample_lanes<kElem>(a, l, a.mask_bits ? mask_lanes(a, l, live) : live, out);
+}
+
+template <int kElem>
+__attribute__((target("avx2"))) int dvr_batch_at_avx2(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) {
+  const __m256i kv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ks));
+  return sample_lanes<kElem>(a, lanes_at(a, _mm256_cvtepi32_ps(kv)), first_lanes(n), out);
+}
+
+// For each 8-bit lane mask, the set lanes' numbers in ascending order, 4 bits each (compaction).
+struct CompactTable {
+  std::uint32_t packed[256];
+  constexpr CompactTable() : packed{} {
+    for (int m = 0; m < 256; ++m) {
+      std::uint32_t p = 0;
+      int n = 0;
+      for (int j = 0; j < 8; ++j) {
+        if (m & (1 << j)) p |= std::uint32_t(j) << (4 * n++);
+      }
+      packed[m] = p;
+    }
+  }
+};
+constexpr CompactTable kCompact;
+
+__attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs& a, int& k_io, int k1, int* ks,
+                                                              int queued) {
+  // The per-axis constants once; the lanes' positions are lanes_at's operations on them.
+  const __m256 t_entry = _mm256_set1_ps(a.t_entry), dt = _mm256_set1_ps(a.dt);
+  const __m256 ox = _mm256_set1_ps(a.origin.x), oy = _mm256_set1_ps(a.origin.y), oz = _mm256_set1_ps(a.origin.z);
+  const __m256 dx = _mm256_set1_ps(a.dir.x), dy = _mm256_set1_ps(a.dir.y), dz = _mm256_set1_ps(a.dir.z);
+  const __m256 ix = _mm256_set1_ps(a.inv_spacing.x), iy = _mm256_set1_ps(a.inv_spacing.y),
+               iz = _mm256_set1_ps(a.inv_spacing.z);
+  const __m256 hx = _mm256_set1_ps(a.hi.x), hy = _mm256_set1_ps(a.hi.y), hz = _mm256_set1_ps(a.hi.z);
+  const __m256 half = _mm256_set1_ps(0.5f), zero = _mm256_setzero_ps();
+  const __m256i plane = _mm256_set1_epi32(2 * a.mask_plane_words), row = _mm256_set1_epi32(2 * a.mask_row_words);
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), one = _mm256_set1_epi32(1),
+                low5 = _mm256_set1_epi32(31), nib = _mm256_set1_epi32(15);
+  const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
+  const int* bits = reinterpret_cast<const int*>(a.mask_bits);
+  int k = k_io;
+  while (k < k1 && queued < 8) {
+    const __m256i kv = _mm256_add_epi32(_mm256_set1_epi32(k), lane);
+    const __m256 t = _mm256_add_ps(t_entry, _mm256_mul_ps(_mm256_cvtepi32_ps(kv), dt));
+    const __m256 ux = _mm256_min_ps(
+        _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(ox, _mm256_mul_ps(t, dx)), ix), half), zero), hx);
+    const __m256 uy = _mm256_min_ps(
+        _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oy, _mm256_mul_ps(t, dy)), iy), half), zero), hy);
+    const __m256 uz = _mm256_min_ps(
+        _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oz, _mm256_mul_ps(t, dz)), iz), half), zero), hz);
+    const __m256i x0 = _mm256_cvttps_epi32(ux);
+    const __m256i w = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(uz), plane),
+                                                        _mm256_mullo_epi32(_mm256_cvttps_epi32(uy), row)),
+                                       _mm256_srli_epi32(x0, 5));
+    const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k1 - k), lane);
+    const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), bits, w, live, 4);
+    const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(x0, low5)), one);
+    const int m = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one))));
+    if (m != 0) {
+      const __m256i idx = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(int(kCompact.packed[m])), shifts), nib);
+      _mm256_storeu_si256(reinterpret_cast<__m256i*>(ks + queued), _mm256_permutevar8x32_epi32(kv, idx));
+      queued += __builtin_popcount(unsigned(m));
+    }
+    k += 8;
+  }
+  k_io = k < k1 ? k : k1;
+  return queued;
+}
+
 }  // namespace
 
 int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
   return a.elem_size == 1 ? dvr_batch_avx2<1>(a, k, n, out) : dvr_batch_avx2<2>(a, k, n, out);
+}
+
+int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) {
+  return a.elem_size == 1 ? dvr_batch_at_avx2<1>(a, ks, n, out) : dvr_batch_at_avx2<2>(a, ks, n, out);
+}
+
+int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued) {
+  return dvr_mask_scan_avx2(a, k, k1, ks, queued);
 }
 
 #else
@@ -143,6 +246,11 @@ int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
 bool sample_batch_available() { return false; }
 bool sample_batch_fits(const DvrBatchArgs&) { return false; }
 int dvr_batch(const DvrBatchArgs&, int, int, DvrBatchOut&) { return -1; }
+int dvr_batch_at(const DvrBatchArgs&, const int*, int, DvrBatchOut&) { return -1; }
+int dvr_mask_scan(const DvrBatchArgs&, int& k, int k1, int*, int queued) {
+  k = k1;
+  return queued;
+}
 
 #endif
 

@@ -51,4 +51,13 @@ bool sample_batch_fits(const DvrBatchArgs& a);
 // takes those samples one by one.
 int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out);
 
+// dvr_batch of the n samples ks[0 .. n-1] (any indices; ks holds 8 ints, 1 <= n <= 8) without the
+// voxel-mask test: lane j is sample ks[j]. The bits of lanes 0 .. n-1, or -1 as dvr_batch.
+int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out);
+
+// Appends to ks[queued ..] the samples of [k, k1) whose voxel-mask bit is set, ascending, eight
+// positions at a time until at least eight are queued or k reaches k1; advances k past the positions
+// tested and returns the new count. ks holds 16 ints (queued < 8 on entry).
+int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued);
+
 }  // namespace sl
