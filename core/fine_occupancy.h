@@ -41,6 +41,10 @@ struct VoxelMaskView {
   int plane_words = 0;                  // per z-plane of cells: row_words * dims.y
   vec3 inv_spacing{1.0f};
   vec3 max_coord{0.0f};                 // vec3(dims - 1), for clamped_voxel_coord
+  // The share of the trilinear cells inside the occupied fine cells whose bit is set (0: not measured).
+  // Only the CPU's batched march reads it, to choose how it finds the set bits (core/raycast_batch.h);
+  // it fills what would be padding, so the device layout stays as it was.
+  float fill = 0.0f;
 
   SL_HOST_DEVICE SL_INLINE bool enabled() const { return bits != nullptr; }
   SL_HOST_DEVICE std::size_t word_count() const {

@@ -1,5 +1,6 @@
 #include "core/in_core_renderer.h"
 
+#include <algorithm>
 #include <optional>
 
 #include "core/block_metadata.h"
@@ -182,6 +183,9 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
       S.fine[i].voxels_valid = true;
     }
     view.voxels = S.fine[i].voxels.view();
+    const double cell_voxels = double(cell) * cell * cell;
+    const double inside = double(S.fine[i].bits.set_cells()) * cell_voxels;
+    view.voxels.fill = inside > 0.0 ? float(std::min(1.0, double(S.fine[i].voxels.set_cells()) / inside)) : 0.0f;
   }
   st.time_ms.metadata += t.ms();
   return view;

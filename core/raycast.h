@@ -268,8 +268,8 @@ struct RayCaster {
     int k = k0;
     // The per-sample bit of the voxel mask (core/fine_occupancy.h), where it was built for these
     // inputs: a sample whose trilinear cell cannot contribute is not fetched. A clear fine cell holds
-    // no set bit, so the samples taken are exactly those whose bit is set: what the CPU's batched
-    // march finds without walking the cells (core/raycast_batch.h).
+    // no set bit, so the samples taken are exactly those whose bit is set, which the CPU's batched
+    // march finds with or without walking the cells (core/raycast_batch.h).
     const VoxelMaskView* mask = nullptr;
     if constexpr (kFine) {
       mask = fine.voxels.enabled() && !lod_varies && ctx.level == 0 && p.filter == Filter::Linear &&

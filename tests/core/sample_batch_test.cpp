@@ -1,7 +1,8 @@
 // The CPU's eight-sample DVR batch (core/sample_batch.h): lane for lane the scalar sample and opacity,
 // and every ray marched with it equal, bit for bit, to the scalar march (colour, alpha, depth, counts,
-// termination), with and without fine cells and the voxel mask, u8 and u16, over random volumes whose
-// small dims put many samples at the faces and in the volume's last bytes (the scalar fallback).
+// termination), with and without fine cells and the voxel mask (found by the cell walk and by the
+// scan), u8 and u16, over random volumes whose small dims put many samples at the faces and in the
+// volume's last bytes (the scalar fallback).
 #include "core/sample_batch.h"
 
 #include <gtest/gtest.h>
@@ -71,6 +72,10 @@ void check_rays(std::uint64_t seed) {
   VoxelMask mask;
   mask.build(sc.vol.view(), &lv, cull);
   fm.voxels = mask.view();
+  // The batch finds the mask's set bits by the cell walk at a dense fill, by the scan at a sparse one.
+  FineOccupancyView walked = fm, scanned = fm;
+  walked.voxels.fill = 1.0f;
+  scanned.voxels.fill = 0.0f;
 
   const vec3 ext = sc.desc.extent();
   const Box3 vbox{vec3(0.0f), ext};
@@ -89,7 +94,7 @@ void check_rays(std::uint64_t seed) {
     const int k_end = sample_index(iv.t1, t0, scalar.p.inv_dt);
     const int k0 = int(r.next() % std::uint64_t(k_end + 1));
     const int k1 = k0 + int(r.next() % std::uint64_t(k_end - k0 + 1));
-    const FineOccupancyView* const views[] = {nullptr, &fv, &fm};
+    const FineOccupancyView* const views[] = {nullptr, &fv, &walked, &scanned};
     for (const FineOccupancyView* f : views) {
       RayAccum a, b;
       scalar.march(ray, t0, k0, k1, a, false, f);
