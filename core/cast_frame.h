@@ -55,6 +55,7 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
   }
   detail::Counters counters;
   Timer timer;
+  const BatchPlans<Sampler> plans(caster, &skip.fine);  // once per frame, not per span
   parallel_for_tiles(img.width, img.height, [&](int x0, int y0, int x1, int y1) {
     std::uint64_t samples = 0, useful = 0, rays = 0, dc_sum = 0;
     std::uint32_t misses = 0, dc_max = 0, dc_min = 0xFFFFFFFFu;
@@ -65,7 +66,7 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
         if (!pixel_span(gen, vbox, x, y, ray, t_entry, t_exit)) continue;
         const std::size_t i = std::size_t(y) * img.width + x;
         RayAccum acc;
-        const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses);
+        const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses, &plans);
         img.rgba[i] = caster.resolve(acc);
         samples_ch[i] = float(acc.samples);
         dc_ch[i] = float(dc);

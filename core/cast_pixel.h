@@ -43,11 +43,12 @@ namespace detail {
 
 // One pixel: walks the method's spans on the global sample grid (Alg. 6 for segment lists; kd-restart
 // for the octree). Returns the depth complexity: segments of the list, or octree nodes visited.
-// `misses` counts the UNKNOWN segments sampled (occupancy misses, resolved out of core).
+// `misses` counts the UNKNOWN segments sampled (occupancy misses, resolved out of core). `plans`: the
+// CPU batch's per-frame inputs for this `skip` (core/raycast_batch.h; none on the device).
 template <class Sampler>
 SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const SkipInputs& skip, std::size_t pixel,
                                         const Ray& ray, float t_entry, float t_exit, RayAccum& acc,
-                                        std::uint32_t& misses) {
+                                        std::uint32_t& misses, const BatchPlans<Sampler>* plans = nullptr) {
   const int k_end = sample_index(t_exit, t_entry, caster.p.inv_dt);
   // The rank's samples of the global grid (all of them in a single process); every span is narrowed
   // to them, so the spans still partition the rank's samples exactly (core/sample_clip.h).
@@ -74,14 +75,14 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
     int k0 = sample_index(t0, t_entry, caster.p.inv_dt), k1 = sample_index(t1, t_entry, caster.p.inv_dt);
     k0 = k0 > kc0 ? k0 : kc0;
     k1 = k1 < kc1 ? k1 : kc1;
-    if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, unknown, fine);
+    if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, unknown, fine, plans);
   };
   switch (skip.method) {
     case SkipMethod::None:
       if (exact) {
         caster.march_exact(ray, tc0, tc1, acc);
       } else {
-        caster.march(ray, t_entry, kc0, kc1, acc);
+        caster.march(ray, t_entry, kc0, kc1, acc, false, nullptr, plans);
       }
       return 0;
     case SkipMethod::Octree: {

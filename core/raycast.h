@@ -134,6 +134,10 @@ SL_HOST_DEVICE inline vec3 shade_headlight(const vec3& base, const vec3& gradien
 template <class Sampler>
 struct BatchMarch;  // core/raycast_batch.h: the CPU's batched DVR march
 #endif
+// core/raycast_batch.h: what the batched march needs of a frame, made once by the CPU's tile loop (the
+// device code passes none).
+template <class Sampler>
+struct BatchPlans;
 
 // Per-ray integration over a sampler (DenseSampler in core; the out-of-core sampler reads through the
 // page table and brick cache). The sampler is a template parameter: no virtual call per sample.
@@ -220,16 +224,20 @@ struct RayCaster {
   // Samples k in [k0, k1). Returns false once the ray has terminated. `unknown`: the span's occupancy
   // is UNKNOWN (an occupancy miss for the out-of-core sampler). `fine` (optional): leave out the
   // samples that fall in its clear cells (exact: they contribute nothing; core/fine_occupancy.h).
-  SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc,
-                            bool unknown = false, const FineOccupancyView* fine = nullptr) const {
+  // `plans` (CPU, optional): the batched march's per-frame inputs, else it works them out per call.
+  SL_HOST_DEVICE bool march(const Ray& ray, float t_entry, int k0, int k1, RayAccum& acc, bool unknown = false,
+                            const FineOccupancyView* fine = nullptr,
+                            const BatchPlans<Sampler>* plans = nullptr) const {
     if (acc.done) return false;
 #if !defined(__CUDA_ARCH__)
     if constexpr (BatchMarch<Sampler>::kElem > 0) {
       // On the CPU, DVR samples eight at a time where the batch applies (core/sample_batch.h): every
       // value it hands back is the scalar one, and the lanes composite in order.
       BatchMarch<Sampler> batch(*this);
-      if (batch.prepare(ray, t_entry, fine)) return batch.march(ray, t_entry, k0, k1, acc, unknown, fine);
+      if (batch.prepare(ray, t_entry, fine, plans)) return batch.march(ray, t_entry, k0, k1, acc, unknown, fine);
     }
+#else
+    (void)plans;
 #endif
     // The loop works on local copies (of the caster too): through references the compiler must
     // assume a store to the accumulator may change the sampler's or the table's fields and reloads
@@ -377,12 +385,21 @@ struct RayCaster {
   // the depth once the opacity first reaches kDepthOpacity; false once early ray termination ends the
   // ray.
   SL_HOST_DEVICE SL_INLINE bool composite(const vec3& rgb, float a, RayAccum& acc, float t) const {
+    return composite_over(rgb, a, acc, t, p.ert, p.ert_threshold);
+  }
+  // composite() with the early-termination settings passed in (the CPU batch holds them in registers).
+  SL_HOST_DEVICE SL_INLINE static bool composite_over(const vec3& rgb, float a, RayAccum& acc, float t, bool ert,
+                                                      float ert_threshold) {
     const float w = (1.0f - acc.alpha) * a;
     acc.color += w * rgb;
     acc.alpha += w;
+    return composited(acc, t, ert, ert_threshold);
+  }
+  // What follows the "over" of a contribution at t: counted, the depth, early ray termination.
+  SL_HOST_DEVICE SL_INLINE static bool composited(RayAccum& acc, float t, bool ert, float ert_threshold) {
     ++acc.useful_samples;
     if (acc.hit_t < 0.0f && acc.alpha >= kDepthOpacity) acc.hit_t = t;
-    if (p.ert && acc.alpha >= p.ert_threshold) {
+    if (ert && acc.alpha >= ert_threshold) {
       acc.done = true;
       return false;
     }
@@ -393,10 +410,11 @@ struct RayCaster {
   // k1 < k_end): a crossing between a span's last sample and the first skipped one is found exactly as
   // a method without skipping finds it (march() already primes with the sample before k0).
   SL_HOST_DEVICE bool march_span(const Ray& ray, float t_entry, int k0, int k1, int k_end, RayAccum& acc,
-                                 bool unknown = false, const FineOccupancyView* fine = nullptr) const {
+                                 bool unknown = false, const FineOccupancyView* fine = nullptr,
+                                 const BatchPlans<Sampler>* plans = nullptr) const {
     if (k1 > k_end) k1 = k_end;
     if (p.mode == RenderMode::Iso && k1 < k_end && k0 < k1) ++k1;
-    return march(ray, t_entry, k0, k1, acc, unknown, fine);
+    return march(ray, t_entry, k0, k1, acc, unknown, fine, plans);
   }
 
   // Exact iso (core/exact_iso.h) on the ray's stretch [ta, tb): walks the voxel-centre cells the ray

@@ -5,7 +5,11 @@
 #pragma once
 
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 #include "core/fine_occupancy.h"
 #include "core/raycast.h"
@@ -23,6 +27,15 @@ template <class LabT>
 inline constexpr int kBatchElem<DenseSampler<std::uint8_t, LabT>> = 1;
 template <class LabT>
 inline constexpr int kBatchElem<DenseSampler<std::uint16_t, LabT>> = 2;
+
+// What BatchMarch::prepare works out that is the same for every ray of a frame: whether the batch
+// applies, its inputs without the ray, the voxel mask it tests and how it finds the mask's set bits.
+struct BatchPlan {
+  bool ok = false;
+  DvrBatchArgs b;
+  const VoxelMaskView* mask = nullptr;
+  bool scan = false;
+};
 
 // One ray's batched march over a caster (a friend of RayCaster: it composites with the caster's own
 // take_sample for the samples it does not batch).
@@ -44,42 +57,64 @@ struct BatchMarch {
 
   explicit BatchMarch(const RayCaster<Sampler>& caster) : c(caster) {}
 
-  // The batch's inputs for this ray, or false where it does not apply (the scalar march then runs):
-  // DVR without lighting, trilinear, one level, a u8/u16 dense volume, a CPU with AVX2, and a voxel mask
-  // (if any; none without fine cells or off level 0) on the sampled volume's own voxel grid.
-  bool prepare(const Ray& ray, float t_entry, const FineOccupancyView* fine) {
+  // The batch's inputs for this ray, or false where it does not apply (the scalar march then runs).
+  // From `plans` where they hold `fine`'s plan, else worked out here (plan()).
+  bool prepare(const Ray& ray, float t_entry, const FineOccupancyView* fine, const BatchPlans<Sampler>* plans) {
+    const BatchPlan* known = plans ? plans->find(fine) : nullptr;
+    if (known) return begin(*known, ray, t_entry);
+    return begin(plan(c, fine), ray, t_entry);
+  }
+
+  // The batch for one ray of a plan (false where the plan says it does not apply).
+  [[gnu::always_inline]] bool begin(const BatchPlan& pl, const Ray& ray, float t_entry) {
+    if (!pl.ok) return false;
+    b = pl.b;
+    mask = pl.mask;
+    scan = pl.scan;
+    b.origin = ray.origin;
+    b.dir = ray.dir;
+    b.t_entry = t_entry;
+    return true;
+  }
+
+  // Where the batch applies, for every ray of `caster` and `fine`: DVR without lighting, trilinear, one
+  // level, a u8/u16 dense volume, a CPU with AVX2, and a voxel mask (if any; none without fine cells or
+  // off level 0) on the sampled volume's own voxel grid.
+  static BatchPlan plan(const RayCaster<Sampler>& c, const FineOccupancyView* fine) {
+    BatchPlan pl;
     const CastParams& p = c.p;
     if (!p.simd || p.mode != RenderMode::Dvr || p.lighting.enabled || p.filter != Filter::Linear ||
         !p.lod.constant() || !sample_batch_available()) {
-      return false;
+      return pl;
     }
     const auto& g = c.volume.volume;
-    if (g.data == nullptr || p.tf.table == nullptr) return false;
+    if (g.data == nullptr || p.tf.table == nullptr) return pl;
+    DvrBatchArgs& b = pl.b;
     b.data = g.data;
     b.elem_size = kElem;
     b.dims = g.dims;
     b.inv_spacing = g.inv_spacing;
     b.hi = vec3(g.dims - 1);
     b.bytes = std::int64_t(g.dims.x) * g.dims.y * g.dims.z * b.elem_size;
-    b.origin = ray.origin;
-    b.dir = ray.dir;
-    b.t_entry = t_entry;
     b.dt = p.dt;
     b.tf_table = &p.tf.table[0].x;
     b.tf_size = p.tf.size;
     b.tf_vmin = p.tf.vmin;
     b.tf_inv_step = p.tf.inv_step;
     b.mask_bits = nullptr;
-    mask = fine && fine->enabled() && fine->voxels.enabled() && p.lod.level_at(0.0f) == 0 ? &fine->voxels : nullptr;
+    const VoxelMaskView* mask =
+        fine && fine->enabled() && fine->voxels.enabled() && p.lod.level_at(0.0f) == 0 ? &fine->voxels : nullptr;
     if (mask) {
       // The batch tests the mask in the volume's voxel coordinates: a mask on other voxels cannot be.
-      if (!(mask->inv_spacing == b.inv_spacing) || !(mask->max_coord == b.hi)) return false;
+      if (!(mask->inv_spacing == b.inv_spacing) || !(mask->max_coord == b.hi)) return pl;
       b.mask_bits = mask->bits;
       b.mask_row_words = mask->row_words;
       b.mask_plane_words = mask->plane_words;
-      scan = mask->fill < kScanFill;
+      pl.mask = mask;
+      pl.scan = mask->fill < kScanFill;
     }
-    return sample_batch_fits(b);
+    pl.ok = sample_batch_fits(b);
+    return pl;
   }
 
   // march() of samples [k0, k1) after a successful prepare(); false once the ray has terminated. The
@@ -138,15 +173,26 @@ struct BatchMarch {
       }
       return true;
     }
+    const Compositing cs(c.p);
     for (int j = 0; j < n; ++j) {
-      if (!composite_lane(ray, t_entry, ks[j], o, j, acc, ctx, clear_v)) return false;
+      if (!composite_lane(ray, cs, o, j, acc, ctx, clear_v)) return false;
     }
     return true;
   }
 
-  // Lane j of a batch, sample k, composited exactly as take_sample would (counted, the table skipped
-  // for a value known to be clear, the label test, early termination). False once the ray terminated.
-  [[gnu::always_inline]] bool composite_lane(const Ray& ray, float t_entry, int k, const DvrBatchOut& o, int j,
+  // What compositing a lane reads of the caster's parameters, as locals: read through `c`, they could
+  // change (as far as the compiler knows) with every store to the accumulator, and are reloaded per lane.
+  struct Compositing {
+    TransferFunctionView tf;
+    bool label_mask, ert;
+    float ert_threshold;
+    explicit Compositing(const CastParams& p)
+        : tf(p.tf), label_mask(p.label_mask), ert(p.ert), ert_threshold(p.ert_threshold) {}
+  };
+
+  // Lane j of a batch composited exactly as take_sample would (counted, the table skipped for a value
+  // known to be clear, the label test, early termination). False once the ray has terminated.
+  [[gnu::always_inline]] bool composite_lane(const Ray& ray, const Compositing& cs, const DvrBatchOut& o, int j,
                                              RayAccum& acc, SampleContext& ctx, float& clear_v) const {
     ++acc.samples;
     const float v = o.v[j];
@@ -156,10 +202,26 @@ struct BatchMarch {
       clear_v = v;
       return true;
     }
-    const float t = t_entry + float(k) * c.p.dt;
-    if (c.p.label_mask && !c.visible_label(ray.at(t), ctx)) return true;
-    const vec3 rgb = c.p.tf.rgb_at(TransferFunctionView::Coord{o.i[j], o.f[j]});
-    return c.composite(rgb, a, acc, t);
+    const float t = o.t[j];  // t_entry + float(k) * dt, as take_sample's
+    if (cs.label_mask && !c.visible_label(ray.at(t), ctx)) return true;
+    const TransferFunctionView::Coord tc{o.i[j], o.f[j]};
+#if defined(__SSE2__)
+    // RayCaster::composite_over of tf.rgb_at(tc) four channels wide: the colour's blend of the two
+    // table entries and acc.color += w * rgb, acc.alpha += w (w * 1 in the fourth lane) are the same
+    // IEEE operations per channel, in the same order.
+    static_assert(offsetof(RayAccum, alpha) == offsetof(RayAccum, color) + 3 * sizeof(float));
+    const float* e = &cs.tf.table[tc.i].x;
+    const __m128 e0 = _mm_loadu_ps(e), e1 = _mm_loadu_ps(e + 4);
+    const __m128 blend = _mm_add_ps(e0, _mm_mul_ps(_mm_set1_ps(tc.f), _mm_sub_ps(e1, e0)));
+    const __m128 rgb1 = _mm_or_ps(_mm_and_ps(blend, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0))),
+                                  _mm_setr_ps(0.0f, 0.0f, 0.0f, 1.0f));
+    const float w = (1.0f - acc.alpha) * a;
+    float* const ca = &acc.color.x;
+    _mm_storeu_ps(ca, _mm_add_ps(_mm_loadu_ps(ca), _mm_mul_ps(_mm_set1_ps(w), rgb1)));
+    return RayCaster<Sampler>::composited(acc, t, cs.ert, cs.ert_threshold);
+#else
+    return RayCaster<Sampler>::composite_over(cs.tf.rgb_at(tc), a, acc, t, cs.ert, cs.ert_threshold);
+#endif
   }
 
   // march_local's fine-cell walk: the samples of consecutive occupied cells are one run (the same
@@ -199,6 +261,7 @@ struct BatchMarch {
   // would (the same counts, the same early termination). False once the ray has terminated.
   bool take_batches(const Ray& ray, float t_entry, int& k, int end, RayAccum& acc, SampleContext& ctx, float& clear_v,
                     const VoxelMaskView* m) const {
+    const Compositing cs(c.p);
     DvrBatchOut o;
     while (k < end) {
       const int n = end - k < 8 ? end - k : 8;
@@ -212,7 +275,7 @@ struct BatchMarch {
       }
       for (unsigned bits = unsigned(visible); bits != 0u; bits &= bits - 1u) {
         const int j = __builtin_ctz(bits);
-        if (!composite_lane(ray, t_entry, k + j, o, j, acc, ctx, clear_v)) {
+        if (!composite_lane(ray, cs, o, j, acc, ctx, clear_v)) {
           k += j + 1;
           return false;
         }
@@ -221,6 +284,23 @@ struct BatchMarch {
     }
     return true;
   }
+};
+
+// The batch's plans of one frame (BatchMarch::plan): for the spans without fine cells and for those of
+// the frame's fine view, made once by the CPU's tile loop (core/cast_frame.h) instead of once per span.
+template <class Sampler>
+struct BatchPlans {
+  const FineOccupancyView* fine = nullptr;
+  BatchPlan none, with_fine;
+
+  BatchPlans(const RayCaster<Sampler>& caster, const FineOccupancyView* f) : fine(f) {
+    if constexpr (BatchMarch<Sampler>::kElem > 0) {
+      none = BatchMarch<Sampler>::plan(caster, nullptr);
+      with_fine = BatchMarch<Sampler>::plan(caster, f);
+    }
+  }
+  // The plan of spans marched with `f`, or null for a fine view these plans were not made for.
+  const BatchPlan* find(const FineOccupancyView* f) const { return f == nullptr ? &none : f == fine ? &with_fine : nullptr; }
 };
 
 }  // namespace sl

@@ -57,6 +57,7 @@ SL_AVX2 __m256 row(const int* base, __m256i o, __m256i live, __m256i has_dx, __m
 // The lanes' sample positions: t = t_entry + float(k) * dt; p = origin + t * dir (Ray::at);
 // u = clamp(p * inv_spacing - 0.5, 0, hi), and the voxel x0 = trunc(u) per axis.
 struct Lanes {
+  __m256 t;
   __m256 ux, uy, uz;
   __m256i x0, y0, z0;
 };
@@ -64,6 +65,7 @@ struct Lanes {
 SL_AVX2 Lanes lanes_at(const DvrBatchArgs& a, __m256 kf) {
   const __m256 t = _mm256_add_ps(_mm256_set1_ps(a.t_entry), _mm256_mul_ps(kf, _mm256_set1_ps(a.dt)));
   Lanes l;
+  l.t = t;
   l.ux = coord(t, a.origin.x, a.dir.x, a.inv_spacing.x, a.hi.x);
   l.uy = coord(t, a.origin.y, a.dir.y, a.inv_spacing.y, a.hi.y);
   l.uz = coord(t, a.origin.z, a.dir.z, a.inv_spacing.z, a.hi.z);
@@ -147,6 +149,7 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, Dv
   const __m256 w1 = _mm256_mask_i32gather_ps(zero, a.tf_table + 4, wi, live_ps, 4);
   const __m256 alpha = _mm256_add_ps(w0, _mm256_mul_ps(f, _mm256_sub_ps(w1, w0)));
 
+  _mm256_store_ps(out.t, l.t);
   _mm256_store_ps(out.v, v);
   _mm256_store_ps(out.alpha, alpha);
   _mm256_store_ps(out.f, f);

@@ -33,6 +33,7 @@ struct DvrBatchArgs {
 };
 
 struct alignas(32) DvrBatchOut {
+  float t[8];      // the sample's ray parameter, t_entry + float(k) * dt
   float v[8];      // the trilinear sample
   float alpha[8];  // the transfer function's opacity at v
   float f[8];      // the table coordinate (TransferFunctionView::Coord)

@@ -96,14 +96,20 @@ void check_rays(std::uint64_t seed) {
     const int k1 = k0 + int(r.next() % std::uint64_t(k_end - k0 + 1));
     const FineOccupancyView* const views[] = {nullptr, &fv, &walked, &scanned};
     for (const FineOccupancyView* f : views) {
-      RayAccum a, b;
+      // The batch's inputs worked out per span, and taken from the per-frame plans the tile loop makes.
+      const BatchPlans<DenseSampler<T, std::uint16_t>> plans(batched, f);
+      RayAccum a, b, c;
       scalar.march(ray, t0, k0, k1, a, false, f);
       batched.march(ray, t0, k0, k1, b, false, f);
+      batched.march(ray, t0, k0, k1, c, false, f, &plans);
       RC_ASSERT(same(a, b));
+      RC_ASSERT(same(a, c));
       // A second span continues the ray as a segment list's next one does.
       scalar.march(ray, t0, k1, k_end, a, false, f);
       batched.march(ray, t0, k1, k_end, b, false, f);
+      batched.march(ray, t0, k1, k_end, c, false, f, &plans);
       RC_ASSERT(same(a, b));
+      RC_ASSERT(same(a, c));
     }
   }
 }
