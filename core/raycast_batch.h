@@ -32,15 +32,15 @@ inline constexpr int kBatchElem<DenseSampler<std::uint16_t, LabT>> = 2;
 // applies, its inputs without the ray, the voxel mask it tests and how it finds the mask's set bits.
 struct BatchPlan {
   bool ok = false;
-  DvrBatchArgs b;
-  const VoxelMaskView* mask = nullptr;
-  bool scan = false;
+  DvrBatchArgs b;                       // BatchMarch adds the ray's origin, direction and t_entry
+  const VoxelMaskView* mask = nullptr;  // the voxel mask march_local would test (none: every sample)
+  bool scan = false;                    // find the mask's set bits by scanning (else by the cell walk)
 };
 
 // One ray's batched march over a caster (a friend of RayCaster: it composites with the caster's own
-// take_sample for the samples it does not batch).
+// take_sample for the samples it does not batch): a plan, completed with the ray.
 template <class Sampler>
-struct BatchMarch {
+struct BatchMarch : BatchPlan {
   static constexpr int kElem = kBatchElem<Sampler>;
   // Runs shorter than this are sampled one by one (a batch costs about as much as two scalar samples).
   static constexpr int kMinRun = 2;
@@ -51,9 +51,6 @@ struct BatchMarch {
   static constexpr float kScanFill = 0.4f;
 
   const RayCaster<Sampler>& c;
-  DvrBatchArgs b;
-  const VoxelMaskView* mask = nullptr;  // the voxel mask march_local would test (none: every sample)
-  bool scan = false;                    // find the mask's set bits by scanning (else by the cell walk)
 
   explicit BatchMarch(const RayCaster<Sampler>& caster) : c(caster) {}
 
@@ -68,9 +65,7 @@ struct BatchMarch {
   // The batch for one ray of a plan (false where the plan says it does not apply).
   [[gnu::always_inline]] bool begin(const BatchPlan& pl, const Ray& ray, float t_entry) {
     if (!pl.ok) return false;
-    b = pl.b;
-    mask = pl.mask;
-    scan = pl.scan;
+    BatchPlan::operator=(pl);
     b.origin = ray.origin;
     b.dir = ray.dir;
     b.t_entry = t_entry;
