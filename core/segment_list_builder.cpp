@@ -8,6 +8,7 @@
 #include <atomic>
 #include <bit>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include <glm/gtc/type_precision.hpp>
@@ -118,6 +119,45 @@ SL_INLINE unsigned slab_lanes(const float* const o[3], const float* const inv[3]
   return hit;
 }
 
+// slab_lanes for rays sharing their origin (perspective): lo_o, hi_o are the box's corners minus that
+// origin, made once per box; per lane the same IEEE operations as slab_lanes on the same values.
+template <ListBuildPath kPath>
+SL_INLINE unsigned slab_lanes_shared(const float* const inv[3], std::size_t i, const float lo_o[3],
+                                     const float hi_o[3], float* t0, float* t1) {
+#if SL_SSE_SLAB
+  if constexpr (kPath == ListBuildPath::Fast) {
+    __m128 near = _mm_set1_ps(-3.402823466e+38f);
+    __m128 far = _mm_set1_ps(3.402823466e+38f);
+    for (int a = 0; a < 3; ++a) {
+      const __m128 ia = _mm_loadu_ps(inv[a] + i);
+      const __m128 u = _mm_mul_ps(_mm_set1_ps(lo_o[a]), ia);
+      const __m128 v = _mm_mul_ps(_mm_set1_ps(hi_o[a]), ia);
+      near = _mm_max_ps(_mm_min_ps(v, u), near);
+      far = _mm_min_ps(_mm_max_ps(u, v), far);
+    }
+    _mm_storeu_ps(t0, near);
+    _mm_storeu_ps(t1, far);
+    return unsigned(_mm_movemask_ps(_mm_and_ps(_mm_cmplt_ps(near, far), _mm_cmpgt_ps(far, _mm_setzero_ps()))));
+  }
+#endif
+  unsigned hit = 0;
+  for (int k = 0; k < 4; ++k) {
+    float near = -3.402823466e+38f;
+    float far = 3.402823466e+38f;
+    for (int a = 0; a < 3; ++a) {
+      float u = lo_o[a] * inv[a][i + k];
+      float v = hi_o[a] * inv[a][i + k];
+      if (u > v) std::swap(u, v);
+      near = u > near ? u : near;
+      far = v < far ? v : far;
+    }
+    t0[k] = near;
+    t1[k] = far;
+    if (near < far && far > 0.0f) hit |= 1u << k;
+  }
+  return hit;
+}
+
 // Bit k set when x[k] > 0 (k < 4).
 template <ListBuildPath kPath>
 SL_INLINE unsigned positive_lanes(const float* x) {
@@ -159,6 +199,66 @@ template unsigned slab4<ListBuildPath::Fast>(const float* const[3], const float*
 template unsigned slab4<ListBuildPath::Scalar>(const float* const[3], const float* const[3], std::size_t,
                                                const Box3&, float*, float*);
 
+template <ListBuildPath kPath>
+unsigned slab4_shared(const float* const inv[3], std::size_t i, const vec3& origin, const Box3& b, float* t0,
+                      float* t1) {
+  float lo_o[3], hi_o[3];
+  for (int a = 0; a < 3; ++a) {
+    lo_o[a] = b.lo[a] - origin[a];
+    hi_o[a] = b.hi[a] - origin[a];
+  }
+  return slab_lanes_shared<kPath>(inv, i, lo_o, hi_o, t0, t1);
+}
+template unsigned slab4_shared<ListBuildPath::Fast>(const float* const[3], std::size_t, const vec3&, const Box3&,
+                                                    float*, float*);
+template unsigned slab4_shared<ListBuildPath::Scalar>(const float* const[3], std::size_t, const vec3&, const Box3&,
+                                                      float*, float*);
+
+// gen.ray(x, y) written out per component (the same IEEE operations in the same order: glm's
+// normalize is v * (1 / sqrt(dot(v, v))), its dot (x*x + y*y) + z*z), with the screen coordinates
+// made once per column and row: a third of the instructions of a ray per pixel through glm.
+void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],
+               float (*inv_dir)[kTileSize * kTileSize]) {
+  constexpr int T = kTileSize;
+  float sx[T], sy[T];
+  for (int l = 0; l < T; ++l) {
+    sx[l] = (2.0f * (float(tile.x0 + l) + 0.5f) / float(gen.width) - 1.0f) * gen.half_h * gen.aspect;
+    sy[l] = (1.0f - 2.0f * (float(tile.y0 + l) + 0.5f) / float(gen.height)) * gen.half_h;
+  }
+  const float fx = gen.forward.x, fy = gen.forward.y, fz = gen.forward.z;
+  const float rx = gen.right.x, ry = gen.right.y, rz = gen.right.z;
+  const float ux = gen.up.x, uy = gen.up.y, uz = gen.up.z;
+  const float ex = gen.eye.x, ey = gen.eye.y, ez = gen.eye.z;
+  for (int ly = 0; ly < T; ++ly) {
+    const float v = sy[ly];
+    for (int lx = 0; lx < T; ++lx) {
+      const int k = ly * T + lx;
+      if (tile.x0 + lx > tile.x1 || tile.y0 + ly > tile.y1) {  // past the image edge: zero, never used
+        for (int a = 0; a < 3; ++a) origin[a][k] = inv_dir[a][k] = 0.0f;
+        continue;
+      }
+      const float u = sx[lx];
+      if (gen.orthographic) {
+        origin[0][k] = (ex + u * rx) + v * ux;
+        origin[1][k] = (ey + u * ry) + v * uy;
+        origin[2][k] = (ez + u * rz) + v * uz;
+        inv_dir[0][k] = slab_reciprocal(fx);
+        inv_dir[1][k] = slab_reciprocal(fy);
+        inv_dir[2][k] = slab_reciprocal(fz);
+      } else {
+        const float dx = (fx + u * rx) + v * ux, dy = (fy + u * ry) + v * uy, dz = (fz + u * rz) + v * uz;
+        const float n = 1.0f / std::sqrt((dx * dx + dy * dy) + dz * dz);
+        origin[0][k] = ex;
+        origin[1][k] = ey;
+        origin[2][k] = ez;
+        inv_dir[0][k] = slab_reciprocal(dx * n);
+        inv_dir[1][k] = slab_reciprocal(dy * n);
+        inv_dir[2][k] = slab_reciprocal(dz * n);
+      }
+    }
+  }
+}
+
 }  // namespace detail
 
 namespace {
@@ -191,8 +291,10 @@ void count_list(SegmentListStats& s, const RayEvent* ev, std::uint32_t word) {
 
 // Hands out ranges of out.events to many threads at once: a block of lists reserves its range with
 // one atomic add and writes itself there. A range past the end of the array (a frame with more events
-// than any before it) goes to the thread's spill buffer instead, copied in once finish() has grown the
-// array: only such frames allocate. Offsets are 32-bit: an image holds up to 2^32 events (32 GiB).
+// than any before it) goes to the thread's spill chunks instead, appended once finish() has grown the
+// array: only such frames allocate. Neither the chunks nor the array's new part are zero-filled
+// first (value-initialising RayEvents is a scalar loop, a tenth of a first frame's instructions).
+// Offsets are 32-bit: an image holds up to 2^32 events (32 GiB).
 class EventArena {
  public:
   explicit EventArena(SegmentListBuffer& out) : out_(out) {}
@@ -203,33 +305,51 @@ class EventArena {
     at = std::uint32_t(first);
     if (first + n <= out_.events.size()) return out_.events.data() + first;
     Spill& s = spilled_.local();
-    s.ranges.push_back(Range{first, s.events.size(), n});
-    s.events.resize(s.events.size() + n);
-    return s.events.data() + (s.events.size() - n);
+    if (s.chunks.empty() || s.used + n > s.chunk_size) {
+      s.chunk_size = std::max(n, kChunkEvents);
+      s.chunks.push_back(std::make_unique_for_overwrite<RayEvent[]>(s.chunk_size));
+      s.used = 0;
+    }
+    RayEvent* const p = s.chunks.back().get() + s.used;
+    s.used += n;
+    s.ranges.push_back(Range{first, p, n});
+    return p;
   }
 
   // After every block is written: grows the array (with an eighth to spare, so that the frames of a
-  // camera path rarely grow it again) and copies the spilled ranges in.
+  // camera path rarely grow it again) and appends the spilled ranges. A range is spilled when it
+  // ends past the array's end, so the spilled ranges, in offset order, tile [their first, total):
+  // the array is cut there and they are appended one after the other.
   void finish() {
     const std::size_t total = used_.load();
     SL_CHECK(total <= std::size_t(0xFFFFFFFFu));
     if (total > out_.events.size()) {
-      out_.events.reserve(total + total / 8);  // exactly: resize alone may double the allocation
-      out_.events.resize(total + total / 8);
-    }
-    // Serially: only a frame larger than any before spills, and then into few, large ranges.
-    for (const Spill& s : spilled_) {
-      for (const Range& r : s.ranges) std::copy_n(s.events.data() + r.from, r.n, out_.events.data() + r.at);
+      std::vector<Range> ranges;
+      for (const Spill& s : spilled_) ranges.insert(ranges.end(), s.ranges.begin(), s.ranges.end());
+      std::sort(ranges.begin(), ranges.end(), [](const Range& a, const Range& b) { return a.at < b.at; });
+      SL_CHECK(!ranges.empty() && ranges.front().at <= out_.events.size());
+      out_.events.resize(ranges.front().at);         // drops nothing written: that part spilled
+      out_.events.reserve(total + total / 8);        // exactly: growing by insert may double it
+      for (const Range& r : ranges) {
+        SL_DCHECK(r.at == out_.events.size());
+        out_.events.insert(out_.events.end(), r.from, r.from + r.n);
+      }
+      SL_CHECK(out_.events.size() == total);
+      out_.events.resize(total + total / 8);  // the spare eighth (zeroed; unused until a bigger frame)
     }
     out_.event_count = total;
   }
 
  private:
+  static constexpr std::size_t kChunkEvents = std::size_t(1) << 16;
   struct Range {
-    std::size_t at, from, n;  // offset in the array, in the spill buffer; events
+    std::size_t at;
+    const RayEvent* from;
+    std::size_t n;  // offset in the array, where the events wait; events
   };
   struct Spill {
-    std::vector<RayEvent> events;
+    std::vector<std::unique_ptr<RayEvent[]>> chunks;
+    std::size_t used = 0, chunk_size = 0;  // of the last chunk
     std::vector<Range> ranges;
   };
   SegmentListBuffer& out_;
@@ -345,16 +465,6 @@ std::vector<std::uint32_t> nesting_levels(std::span<const VisibilityEntry> order
   return level;
 }
 
-// Lanes [g, g + 4) of a tile row that lie in [x0, x1], as a 4-bit mask.
-unsigned lane_mask(int g, int x0, int x1) {
-  unsigned m = 0xFu;
-  if (x0 > g) m &= 0xFu << (x0 - g);
-  if (x1 < g + 3) m &= 0xFu >> (g + 3 - x1);
-  return m & 0xFu;
-}
-
-constexpr std::uint8_t kLaneCount[16] = {0, 1, 1, 2, 1, 2, 2, 3, 1, 2, 2, 3, 2, 3, 3, 4};
-
 // A tile's working set, one per thread and kept between frames. Pixel k = ly * T + lx of the tile.
 struct TileScratch {
   alignas(16) float origin[3][kTilePixels];
@@ -379,7 +489,10 @@ struct TileJob {
 };
 
 // The tile's lists in its scratch (Alg. 4-5 per entry and covered pixel). False when a list
-// overflowed the scratch's capacity.
+// overflowed the scratch's capacity. A box's pixels in a tile row are its 4-lane groups [j0, j1],
+// the first and last masked to [x0, x1] (the masks made once per entry). Perspective rays share
+// their origin, so the Fast path takes each box's corners relative to it once per entry
+// (slab_lanes_shared: the same subtraction, so the same bits).
 template <ListBuildPath kPath>
 bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
                     TileScratch& s, std::uint64_t& tests) {
@@ -389,50 +502,68 @@ bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
   std::fill_n(s.t_seen, kTilePixels, kNoEventYet);
   const float* const o[3] = {s.origin[0], s.origin[1], s.origin[2]};
   const float* const inv[3] = {s.inv_dir[0], s.inv_dir[1], s.inv_dir[2]};
+  const bool shared_origin = kPath == ListBuildPath::Fast && !job.gen.orthographic;
+  const float eps = job.eps;
   alignas(16) float t0[4] = {}, t1[4] = {};
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const std::uint32_t e = entries[i];
     const VisibilityEntry& v = job.order[e];
     const OccupancyBox& b = job.geometry.boxes[v.box];
     const Box3 box = b.box;  // a copy the stores below cannot alias
+    const OccupancyClass cls = b.cls, parent_cls = b.parent_cls;
     const ScreenRect& r = job.rects[v.box];
     const int x0 = std::max(r.x0, tile.x0) - tile.x0, x1 = std::min(r.x1, tile.x1) - tile.x0;
     const int y0 = std::max(r.y0, tile.y0) - tile.y0, y1 = std::min(r.y1, tile.y1) - tile.y0;
+    const int j0 = x0 >> 2, j1 = x1 >> 2;
+    unsigned masks[T / 4] = {};
+    for (int j = j0; j <= j1; ++j) masks[j] = 0xFu;
+    masks[j0] &= (0xFu << (x0 & 3)) & 0xFu;
+    masks[j1] &= 0xFu >> (3 - (x1 & 3));
     const std::uint32_t level = job.level[e];
     float* const exit = s.exits.data() + std::size_t(level) * kTilePixels;
     if (v.face == Face::Front) {
+      tests += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
       // A leaf's BACK entry follows its FRONT entry (Alg. 3): both events at once, per pixel in the
       // same order, and no exit to keep.
       const bool leaf = i + 1 < entries.size() && entries[i + 1] == e + 1u && job.order[e + 1].box == v.box;
-      for (int y = y0; y <= y1; ++y) {
-        for (int g = x0 & ~3; g <= x1; g += 4) {
-          const int k0 = y * T + g;
-          const unsigned lanes = lane_mask(g, x0, x1);
-          tests += kLaneCount[lanes];
-          const unsigned hit = slab_lanes<kPath>(o, inv, std::size_t(k0), box, t0, t1) & lanes;
-          if (!leaf) store_lanes<kPath>(exit + k0, t1, hit);  // the BACK entry's EXIT t (0: missed)
-          for (unsigned m = hit; m != 0u; m &= m - 1u) {
-            const int l = std::countr_zero(m);
-            const int k = k0 + l;
-            add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, t0[l] > 0.0f ? t0[l] : 0.0f,
-                      EventType::Entry, b.cls, job.eps);
-            if (leaf) {
-              add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, t1[l], EventType::Exit,
-                        b.parent_cls, job.eps);
+      float lo_o[3], hi_o[3];  // the box relative to the shared origin
+      for (int a = 0; a < 3; ++a) {
+        lo_o[a] = box.lo[a] - o[a][0];
+        hi_o[a] = box.hi[a] - o[a][0];
+      }
+      auto front = [&]<bool kLeaf, bool kShared>() {
+        for (int y = y0; y <= y1; ++y) {
+          for (int j = j0; j <= j1; ++j) {
+            const int k0 = y * T + 4 * j;
+            const unsigned hit = (kShared ? slab_lanes_shared<kPath>(inv, std::size_t(k0), lo_o, hi_o, t0, t1)
+                                          : slab_lanes<kPath>(o, inv, std::size_t(k0), box, t0, t1)) &
+                                 masks[j];
+            if constexpr (!kLeaf) store_lanes<kPath>(exit + k0, t1, hit);  // the BACK entry's EXIT t (0: missed)
+            for (unsigned m = hit; m != 0u; m &= m - 1u) {
+              const int l = std::countr_zero(m);
+              const int k = k0 + l;
+              RayEvent* const list = ev + std::size_t(k) * cap;
+              add_event(list, s.count[k], s.t_seen[k], cap, t0[l] > 0.0f ? t0[l] : 0.0f, EventType::Entry, cls, eps);
+              if constexpr (kLeaf) add_event(list, s.count[k], s.t_seen[k], cap, t1[l], EventType::Exit, parent_cls, eps);
             }
           }
         }
+      };
+      if (leaf) {
+        shared_origin ? front.template operator()<true, true>() : front.template operator()<true, false>();
+      } else {
+        shared_origin ? front.template operator()<false, true>() : front.template operator()<false, false>();
       }
       i += leaf ? 1u : 0u;
     } else {
       // Alg. 4's EXIT at the back face: the t1 of the slab test the FRONT entry of this box ran.
       for (int y = y0; y <= y1; ++y) {
-        for (int g = x0 & ~3; g <= x1; g += 4) {
-          const int k0 = y * T + g;
-          for (unsigned m = lane_mask(g, x0, x1) & positive_lanes<kPath>(exit + k0); m != 0u; m &= m - 1u) {
+        for (int j = j0; j <= j1; ++j) {
+          const int k0 = y * T + 4 * j;
+          for (unsigned m = masks[j] & positive_lanes<kPath>(exit + k0); m != 0u; m &= m - 1u) {
             const int k = k0 + std::countr_zero(m);
-            add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit,
-                      b.parent_cls, job.eps);
+            add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit, parent_cls,
+                      eps);
           }
         }
       }
@@ -448,22 +579,7 @@ template <ListBuildPath kPath>
 void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
                 SegmentListStats& st) {
   thread_local TileScratch s;
-  // Rays of the tile as structure of arrays; lanes past the image edge are zero and never used.
-  for (int ly = 0; ly < T; ++ly) {
-    for (int lx = 0; lx < T; ++lx) {
-      const int k = ly * T + lx;
-      const int x = tile.x0 + lx, y = tile.y0 + ly;
-      if (x > tile.x1 || y > tile.y1) {
-        for (int a = 0; a < 3; ++a) s.origin[a][k] = s.inv_dir[a][k] = 0.0f;
-        continue;
-      }
-      const Ray ray = job.gen.ray(x, y);
-      for (int a = 0; a < 3; ++a) {
-        s.origin[a][k] = ray.origin[a];
-        s.inv_dir[a][k] = detail::slab_reciprocal(ray.dir[a]);
-      }
-    }
-  }
+  detail::tile_rays(job.gen, tile, s.origin, s.inv_dir);
   if (s.exits.size() < std::size_t(job.depth) * kTilePixels) s.exits.resize(std::size_t(job.depth) * kTilePixels);
   std::uint64_t tests = 0;
   for (;;) {

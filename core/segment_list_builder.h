@@ -10,7 +10,10 @@
 //    (FRONT in pre-order, BACK in post-order), so for one pixel the entries of the boxes covering it
 //    nest like parentheses, and one slot per nesting level and pixel holds the exit t of the open box
 //    (the twin: the reference builder, which intersects again);
-//  - a leaf's two entries (adjacent in the order) are applied in one pass over its pixels.
+//  - a leaf's two entries (adjacent in the order) are applied in one pass over its pixels;
+//  - perspective rays share their origin: the box relative to it once per entry (slab4_shared);
+//  - the tile's rays written out per component (tile_rays, gen.ray()'s bits);
+//  - a first frame's events are not zero-filled before they are written (EventArena).
 // Tighter pixel bounds than the rectangle do not pay here: masking each box's pixels by the exact hit
 // set of the box enclosing it saved 2.5 % of the slab tests and cost 3 % more instructions.
 // Lists are built per tile in a scratch of the tile's pixels x a capacity; a tile one of whose lists
@@ -24,6 +27,7 @@
 
 #include "core/camera.h"
 #include "core/occupancy_geometry.h"
+#include "core/parallel.h"
 #include "core/ray.h"
 #include "core/segment_list.h"
 #include "core/visibility_order.h"
@@ -64,6 +68,21 @@ extern template unsigned slab4<ListBuildPath::Fast>(const float* const[3], const
                                                     const Box3&, float*, float*);
 extern template unsigned slab4<ListBuildPath::Scalar>(const float* const[3], const float* const[3], std::size_t,
                                                       const Box3&, float*, float*);
+
+// slab4 for four rays that share `origin` (perspective), as the tile builder's Fast path runs it: the
+// box relative to the origin once, then per lane the same operations, so bit for bit slab4's result.
+template <ListBuildPath kPath>
+unsigned slab4_shared(const float* const inv[3], std::size_t i, const vec3& origin, const Box3& b, float* t0,
+                      float* t1);
+extern template unsigned slab4_shared<ListBuildPath::Fast>(const float* const[3], std::size_t, const vec3&,
+                                                           const Box3&, float*, float*);
+extern template unsigned slab4_shared<ListBuildPath::Scalar>(const float* const[3], std::size_t, const vec3&,
+                                                             const Box3&, float*, float*);
+
+// The rays of a kTileSize x kTileSize screen tile (pixel k = ly * kTileSize + lx) as structure of
+// arrays: origins and slab_reciprocal'd directions, bit for bit gen.ray()'s; zero past tile.x1, tile.y1.
+void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],
+               float (*inv_dir)[kTileSize * kTileSize]);
 
 }  // namespace detail
 

@@ -287,6 +287,83 @@ RC_GTEST_PROP(SegmentListBuilderProperty, Slab4EqualsIntersectLaneForLane, (std:
   }
 }
 
+// Perspective rays share their origin: the Fast path's slab test with the box taken relative to it
+// once (slab4_shared, both paths) is bit for bit slab4's on the same rays, lane for lane.
+RC_GTEST_PROP(SegmentListBuilderProperty, Slab4SharedEqualsSlab4LaneForLane, (std::uint64_t seed)) {
+  std::uint64_t st = seed;
+  auto next = [&] {
+    st = st * 6364136223846793005ull + 1442695040888963407ull;
+    return st >> 11;
+  };
+  auto u = [&](float a, float b) { return a + (b - a) * float(double(next()) * 0x1.0p-53); };
+  const float grid[] = {0.0f, 0.25f, 0.5f, 1.0f};
+  auto coord = [&](float a, float b) { return next() % 3 == 0 ? grid[next() % 4] : u(a, b); };
+  Box3 box;
+  for (int a = 0; a < 3; ++a) {
+    const float p = coord(-1, 1), q = next() % 8 == 0 ? p : coord(-1, 1);
+    box.lo[a] = std::min(p, q);
+    box.hi[a] = std::max(p, q);
+  }
+  const vec3 origin(coord(-2, 2), coord(-2, 2), coord(-2, 2));
+  alignas(16) float o[3][8], inv[3][8];
+  for (int k = 0; k < 8; ++k) {
+    vec3 d;
+    for (int a = 0; a < 3; ++a) {
+      d[a] = next() % 2 == 0 ? u(box.lo[a] - 0.1f, box.hi[a] + 0.1f) - origin[a] : u(-1, 1);
+      if (next() % 4 == 0) d[a] = next() % 4 == 0 ? -0.0f : 0.0f;
+    }
+    if (d == vec3(0.0f)) d.z = 1.0f;
+    const vec3 n = glm::normalize(d);
+    for (int a = 0; a < 3; ++a) {
+      o[a][k] = origin[a];
+      inv[a][k] = detail::slab_reciprocal(d[a] == 0.0f ? d[a] : n[a]);
+    }
+  }
+  const float* const op[3] = {o[0], o[1], o[2]};
+  const float* const ip[3] = {inv[0], inv[1], inv[2]};
+  for (std::size_t i : {std::size_t(0), std::size_t(3), std::size_t(4)}) {
+    alignas(16) float s0[4], s1[4], f0[4], f1[4], c0[4], c1[4];
+    const unsigned ref = detail::slab4<ListBuildPath::Scalar>(op, ip, i, box, s0, s1);
+    const unsigned fast = detail::slab4_shared<ListBuildPath::Fast>(ip, i, origin, box, f0, f1);
+    const unsigned scalar = detail::slab4_shared<ListBuildPath::Scalar>(ip, i, origin, box, c0, c1);
+    RC_ASSERT(fast == ref);
+    RC_ASSERT(scalar == ref);
+    RC_CLASSIFY(ref != 0u, "some lane hits");
+    RC_ASSERT(std::memcmp(f0, s0, sizeof s0) == 0 && std::memcmp(f1, s1, sizeof s1) == 0);
+    RC_ASSERT(std::memcmp(c0, s0, sizeof s0) == 0 && std::memcmp(c1, s1, sizeof s1) == 0);
+  }
+}
+
+// The tile builder's rays are gen.ray()'s bit for bit (perspective and orthographic, a tile at the
+// image's corner cut by both edges), zero past the edges.
+TEST(SegmentListBuilder, TileRaysEqualRayGenerator) {
+  constexpr int T = kTileSize;
+  for (const Camera& cam : {perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f), 53.0f),
+                            orthographic(vec3(100.0f, -50.0f, 80.0f), vec3(30.0f, 16.0f, 45.0f), 110.0f)}) {
+    const RayGenerator gen = make_ray_generator(cam, 2 * T + 5, T + 3);
+    for (const ScreenRect tile : {ScreenRect{T, 0, 2 * T - 1, T - 1}, ScreenRect{2 * T, T, 2 * T + 4, T + 2}}) {
+      alignas(16) float origin[3][T * T], inv[3][T * T];
+      detail::tile_rays(gen, tile, origin, inv);
+      for (int ly = 0; ly < T; ++ly) {
+        for (int lx = 0; lx < T; ++lx) {
+          const int k = ly * T + lx, x = tile.x0 + lx, y = tile.y0 + ly;
+          for (int a = 0; a < 3; ++a) {
+            if (x > tile.x1 || y > tile.y1) {
+              EXPECT_EQ(origin[a][k], 0.0f);
+              EXPECT_EQ(inv[a][k], 0.0f);
+              continue;
+            }
+            const Ray ray = gen.ray(x, y);
+            const float r = detail::slab_reciprocal(ray.dir[a]);
+            EXPECT_EQ(std::memcmp(&origin[a][k], &ray.origin[a], 4), 0) << x << "," << y << " axis " << a;
+            EXPECT_EQ(std::memcmp(&inv[a][k], &r, 4), 0) << x << "," << y << " axis " << a;
+          }
+        }
+      }
+    }
+  }
+}
+
 TEST(SegmentListBuilder, AnyThreadCountGivesIdenticalLists) {
   const Fixture f = rich_fixture(21, ivec3(64, 60, 64), vec3(1.0f));
   const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 20.0f, 120.0f), vec3(32.0f)), 97, 65);
