@@ -79,7 +79,9 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                    std::string(view ? " (key F)" : ""))
       ->capture_default_str();
   c.add_option("--step", o.step, "Sample distance in units of the smallest spacing, in [0.001, 64]")->capture_default_str();
-  c.add_option("--block", o.block, "Culling block edge in voxels: 4, 8, 16 or 32")->capture_default_str();
+  c.add_option("--block", o.block,
+               "Culling block edge in voxels: auto (8 in core, 16 out of core), 4, 8, 16 or 32")
+      ->capture_default_str();
   c.add_option("--fine-cell", o.fine_cell,
                "Fine occupancy cell edge in voxels inside SparseLeap segments (in core): auto, 4 or 8, 0 = off; "
                "auto is 8 where the voxel mask applies, else 4. The image is the same, only clear cells' samples "
@@ -152,6 +154,14 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   }
 }
 
+int parse_block(const std::string& text, bool out_of_core) {
+  if (text == "auto") return out_of_core ? kOutOfCoreBlock : kInCoreBlock;
+  if (text != "4" && text != "8" && text != "16" && text != "32") {
+    throw InputError("--block", "culling block size must be auto, 4, 8, 16 or 32 (got '" + text + "')");
+  }
+  return std::stoi(text);
+}
+
 CheckedOptions check_render_options(const RenderOptions& o) {
   CheckedOptions c;
   RenderSettings& rs = c.settings;
@@ -164,7 +174,7 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   rs.ert = o.ert;
   rs.lighting = o.lighting;
   validate_lighting(o.lighting);
-  rs.block = o.block;
+  rs.block = parse_block(o.block, o.out_of_core());
   if (o.fine_cell == "auto") {
     rs.fine_cell = kFineCellAuto;
   } else if (o.fine_cell == "0" || o.fine_cell == "4" || o.fine_cell == "8") {

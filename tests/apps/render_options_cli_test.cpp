@@ -95,6 +95,52 @@ TEST(RenderOptions, SharedValuesAreCheckedTheSameWay) {
   expect_same_error("--cuda-sampler tex",
                     "sparseleap: error: --cuda-sampler: unknown sampler 'tex' (expected slots or atlas)");
   expect_same_error("--cache-mb 8 --lod 9", "sparseleap: error: --lod: level 9 does not exist (the volume has 1 levels)");
+  expect_same_error("--block 12", "sparseleap: error: --block: culling block size must be auto, 4, 8, 16 or 32 (got '12')");
+  expect_same_error("--block 8x", "sparseleap: error: --block: culling block size must be auto, 4, 8, 16 or 32 (got '8x')");
+}
+
+// `column` of the last row of a bench run's CSV over one view.
+long bench_column(const std::string& args, const std::string& column) {
+  const fs::path csv = test::scratch_dir() / "block.csv";
+  const test::RunResult r = run("bench", small("--volume builtin:neurites:64x64x64 --methods sparseleap --orbit 1 "
+                                               "--warmup 0 --max-frames-per-view 30 --csv " + csv.string() + " " + args));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  FILE* f = std::fopen(csv.string().c_str(), "r");
+  if (!f) return -1;
+  auto split = [](const char* text) {
+    std::vector<std::string> v(1);
+    for (const char* c = text; *c && *c != '\n'; ++c) {
+      if (*c == ',') {
+        v.emplace_back();
+      } else {
+        v.back() += *c;
+      }
+    }
+    return v;
+  };
+  char line[4096];
+  std::vector<std::string> header, row;
+  if (std::fgets(line, sizeof line, f)) header = split(line);
+  while (std::fgets(line, sizeof line, f)) row = split(line);
+  std::fclose(f);
+  for (std::size_t i = 0; i < header.size() && i < row.size(); ++i) {
+    if (header[i] == column) return std::stol(row[i]);
+  }
+  return -1;
+}
+
+TEST(RenderOptions, BlockAutoIsEightInCoreAndSixteenOutOfCore) {
+  const long in_auto = bench_column("", "boxes"), in8 = bench_column("--block 8", "boxes"),
+             in16 = bench_column("--block 16", "boxes");
+  EXPECT_GT(in8, 0);
+  EXPECT_NE(in8, in16);  // the block does decide the boxes here
+  EXPECT_EQ(in_auto, in8);
+  // Out of core, auto is 16: more than 8-voxel bricks hold, as --block 16 is (and --block 8 is not).
+  expect_same_error("--cache-mb 16 --brick 8",
+                    "sparseleap: error: --block: the culling block must not exceed the brick size (--brick)");
+  expect_same_error("--cache-mb 16 --brick 8 --block 16",
+                    "sparseleap: error: --block: the culling block must not exceed the brick size (--brick)");
+  EXPECT_GT(bench_column("--cache-mb 16 --brick 8 --block 8", "samples"), 0);
 }
 
 TEST(RenderOptions, TheTextureAtlasIsOnlyForTheCudaBackendOutOfCore) {
