@@ -1,0 +1,109 @@
+// The screen side of the CPU list builder (core/segment_list_builder.h): a box's conservative pixel
+// rectangle, and a tile's rays as structure of arrays.
+#include "core/segment_list_builder.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/gtc/type_precision.hpp>
+
+namespace sl {
+
+ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen) {
+  const glm::dvec3 eye(gen.eye), fwd(gen.forward), right(gen.right), up(gen.up);
+  double zmin = HUGE_VAL, zmax = -HUGE_VAL, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
+  double dmax = 0.0;
+  glm::dvec3 v[8];
+  for (int k = 0; k < 8; ++k) {
+    const glm::dvec3 c((k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y, (k & 4) ? box.hi.z : box.lo.z);
+    v[k] = c - eye;
+    const double z = glm::dot(v[k], fwd);
+    zmin = std::min(zmin, z);
+    zmax = std::max(zmax, z);
+    dmax = std::max(dmax, glm::length(v[k]));
+  }
+  // Rays move forward (perspective: every direction has a positive forward component; orthographic:
+  // origins on the eye plane), so a box wholly behind the eye plane is met only at t <= 0. The
+  // tolerance keeps boxes touching the plane, where float slab tests may still report t1 > 0.
+  const double tol = 1e-5 * dmax + 1e-30;
+  if (zmax < -tol) return ScreenRect{};
+  const ScreenRect full{0, 0, gen.width - 1, gen.height - 1};
+  if (!gen.orthographic && zmin <= tol) return full;  // holds the eye or straddles the eye plane
+  for (int k = 0; k < 8; ++k) {
+    double x = glm::dot(v[k], right), y = glm::dot(v[k], up);
+    if (!gen.orthographic) {
+      const double z = glm::dot(v[k], fwd);
+      x /= z;
+      y /= z;
+    }
+    xmin = std::min(xmin, x);
+    xmax = std::max(xmax, x);
+    ymin = std::min(ymin, y);
+    ymax = std::max(ymax, y);
+  }
+  // Inverse of RayGenerator::ray: screen coordinate -> continuous pixel index of the pixel centre.
+  const double half_h = gen.half_h, half_w = double(gen.half_h) * double(gen.aspect);
+  auto px = [&](double sx) { return (sx / half_w + 1.0) * 0.5 * gen.width - 0.5; };
+  auto py = [&](double sy) { return (1.0 - sy / half_h) * 0.5 * gen.height - 0.5; };
+  constexpr double kMargin = 2.0;  // pixels: float ray generation and slab-test rounding
+  const double fx0 = std::floor(px(xmin) - kMargin), fx1 = std::ceil(px(xmax) + kMargin);
+  const double fy0 = std::floor(py(ymax) - kMargin), fy1 = std::ceil(py(ymin) + kMargin);
+  if (fx1 < 0.0 || fy1 < 0.0 || fx0 > gen.width - 1 || fy0 > gen.height - 1) return ScreenRect{};
+  ScreenRect r;
+  r.x0 = int(std::max(fx0, 0.0));
+  r.y0 = int(std::max(fy0, 0.0));
+  r.x1 = int(std::min(fx1, double(gen.width - 1)));
+  r.y1 = int(std::min(fy1, double(gen.height - 1)));
+  return r;
+}
+
+namespace detail {
+
+// gen.ray(x, y) written out per component (the same IEEE operations in the same order: glm's
+// normalize is v * (1 / sqrt(dot(v, v))), its dot (x*x + y*y) + z*z), with the screen coordinates
+// made once per column and row: a third of the instructions of a ray per pixel through glm.
+void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],
+               float (*inv_dir)[kTileSize * kTileSize]) {
+  constexpr int T = kTileSize;
+  float sx[T], sy[T];
+  for (int l = 0; l < T; ++l) {
+    sx[l] = (2.0f * (float(tile.x0 + l) + 0.5f) / float(gen.width) - 1.0f) * gen.half_h * gen.aspect;
+    sy[l] = (1.0f - 2.0f * (float(tile.y0 + l) + 0.5f) / float(gen.height)) * gen.half_h;
+  }
+  const float fx = gen.forward.x, fy = gen.forward.y, fz = gen.forward.z;
+  const float rx = gen.right.x, ry = gen.right.y, rz = gen.right.z;
+  const float ux = gen.up.x, uy = gen.up.y, uz = gen.up.z;
+  const float ex = gen.eye.x, ey = gen.eye.y, ez = gen.eye.z;
+  for (int ly = 0; ly < T; ++ly) {
+    const float v = sy[ly];
+    for (int lx = 0; lx < T; ++lx) {
+      const int k = ly * T + lx;
+      if (tile.x0 + lx > tile.x1 || tile.y0 + ly > tile.y1) {  // past the image edge: zero, never used
+        for (int a = 0; a < 3; ++a) origin[a][k] = inv_dir[a][k] = 0.0f;
+        continue;
+      }
+      const float u = sx[lx];
+      if (gen.orthographic) {
+        origin[0][k] = (ex + u * rx) + v * ux;
+        origin[1][k] = (ey + u * ry) + v * uy;
+        origin[2][k] = (ez + u * rz) + v * uz;
+        inv_dir[0][k] = slab_reciprocal(fx);
+        inv_dir[1][k] = slab_reciprocal(fy);
+        inv_dir[2][k] = slab_reciprocal(fz);
+      } else {
+        const float dx = (fx + u * rx) + v * ux, dy = (fy + u * ry) + v * uy, dz = (fz + u * rz) + v * uz;
+        const float n = 1.0f / std::sqrt((dx * dx + dy * dy) + dz * dz);
+        origin[0][k] = ex;
+        origin[1][k] = ey;
+        origin[2][k] = ez;
+        inv_dir[0][k] = slab_reciprocal(dx * n);
+        inv_dir[1][k] = slab_reciprocal(dy * n);
+        inv_dir[2][k] = slab_reciprocal(dz * n);
+      }
+    }
+  }
+}
+
+}  // namespace detail
+
+}  // namespace sl
