@@ -351,6 +351,41 @@ std::vector<std::uint32_t> nesting_levels(std::span<const VisibilityEntry> order
   return level;
 }
 
+// add_event's common case, written out: an event later than every depth the list has seen, that
+// changes the class, with room for it and no short-gap rule (eps = 0) meets none of Alg. 5's rules
+// and is appended as it is. Anything else goes through add_event. Exactly add_event's result: the
+// list's tail lies at or before t_seen, so no same-depth rule can apply; an overflowed count word
+// (top bit) fails the room test.
+SL_INLINE void append_event(RayEvent* list, std::uint32_t& count, float& t_seen, std::uint32_t cap, float t,
+                            EventType type, OccupancyClass cls, float eps) {
+  const std::uint32_t n = count;
+  if (n < cap && t > t_seen && !(eps > 0.0f) && (n == 0u || list[n - 1].cls != std::uint8_t(cls))) {
+    list[n] = detail::make_event(t, type, cls);
+    count = n + 1u;
+    t_seen = t;
+    return;
+  }
+  add_event(list, count, t_seen, cap, t, type, cls, eps);
+}
+
+// A leaf's ENTRY at t_in and EXIT at t_out (Alg. 4) as two add_event calls would add them; both at
+// once in the common case (append_event's, for the pair: the exit after the entry and back to a class
+// other than the leaf's).
+SL_INLINE void append_leaf(RayEvent* list, std::uint32_t& count, float& t_seen, std::uint32_t cap, float t_in,
+                           float t_out, OccupancyClass cls, OccupancyClass parent_cls, float eps) {
+  const std::uint32_t n = count;
+  if (n < cap && cap - n >= 2u && t_in > t_seen && t_out > t_in && !(eps > 0.0f) && cls != parent_cls &&
+      (n == 0u || list[n - 1].cls != std::uint8_t(cls))) {
+    list[n] = detail::make_event(t_in, EventType::Entry, cls);
+    list[n + 1] = detail::make_event(t_out, EventType::Exit, parent_cls);
+    count = n + 2u;
+    t_seen = t_out;
+    return;
+  }
+  append_event(list, count, t_seen, cap, t_in, EventType::Entry, cls, eps);
+  append_event(list, count, t_seen, cap, t_out, EventType::Exit, parent_cls, eps);
+}
+
 // A tile's working set, one per thread and kept between frames. Pixel k = ly * T + lx of the tile.
 struct TileScratch {
   alignas(16) float origin[3][kTilePixels];
@@ -429,8 +464,12 @@ bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
               const int l = std::countr_zero(m);
               const int k = k0 + l;
               RayEvent* const list = ev + std::size_t(k) * cap;
-              add_event(list, s.count[k], s.t_seen[k], cap, t0[l] > 0.0f ? t0[l] : 0.0f, EventType::Entry, cls, eps);
-              if constexpr (kLeaf) add_event(list, s.count[k], s.t_seen[k], cap, t1[l], EventType::Exit, parent_cls, eps);
+              const float t_in = t0[l] > 0.0f ? t0[l] : 0.0f;
+              if constexpr (kLeaf) {
+                append_leaf(list, s.count[k], s.t_seen[k], cap, t_in, t1[l], cls, parent_cls, eps);
+              } else {
+                append_event(list, s.count[k], s.t_seen[k], cap, t_in, EventType::Entry, cls, eps);
+              }
             }
           }
         }
@@ -448,7 +487,7 @@ bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
           const int k0 = y * T + 4 * j;
           for (unsigned m = masks[j] & positive_lanes<kPath>(exit + k0); m != 0u; m &= m - 1u) {
             const int k = k0 + std::countr_zero(m);
-            add_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit, parent_cls,
+            append_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit, parent_cls,
                       eps);
           }
         }
