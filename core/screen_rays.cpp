@@ -7,6 +7,13 @@
 
 #include <glm/gtc/type_precision.hpp>
 
+#if defined(__SSE2__) && !defined(SL_NO_SSE)
+#include <emmintrin.h>
+#define SL_SSE_RAYS 1
+#else
+#define SL_SSE_RAYS 0
+#endif
+
 namespace sl {
 
 ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen) {
@@ -61,11 +68,14 @@ namespace detail {
 
 // gen.ray(x, y) written out per component (the same IEEE operations in the same order: glm's
 // normalize is v * (1 / sqrt(dot(v, v))), its dot (x*x + y*y) + z*z), with the screen coordinates
-// made once per column and row: a third of the instructions of a ray per pixel through glm.
+// made once per column and row: a third of the instructions of a ray per pixel through glm. With SSE2,
+// perspective rays four pixels at a time: the same operations per lane (sqrtps and divps round as
+// sqrtss and divss; no contraction into FMA), slab_reciprocal's +inf for either zero made by a blend.
 void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],
                float (*inv_dir)[kTileSize * kTileSize]) {
   constexpr int T = kTileSize;
-  float sx[T], sy[T];
+  alignas(16) float sx[T];
+  float sy[T];
   for (int l = 0; l < T; ++l) {
     sx[l] = (2.0f * (float(tile.x0 + l) + 0.5f) / float(gen.width) - 1.0f) * gen.half_h * gen.aspect;
     sy[l] = (1.0f - 2.0f * (float(tile.y0 + l) + 0.5f) / float(gen.height)) * gen.half_h;
@@ -74,9 +84,34 @@ void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[
   const float rx = gen.right.x, ry = gen.right.y, rz = gen.right.z;
   const float ux = gen.up.x, uy = gen.up.y, uz = gen.up.z;
   const float ex = gen.eye.x, ey = gen.eye.y, ez = gen.eye.z;
+  const int inside_x = tile.x1 - tile.x0 + 1;  // pixels of a row within the image
   for (int ly = 0; ly < T; ++ly) {
     const float v = sy[ly];
-    for (int lx = 0; lx < T; ++lx) {
+    int lx = 0;
+#if SL_SSE_RAYS
+    if (!gen.orthographic && tile.y0 + ly <= tile.y1) {
+      const __m128 one = _mm_set1_ps(1.0f), zero = _mm_setzero_ps(), inf = _mm_set1_ps(__builtin_huge_valf());
+      const __m128 vx = _mm_set1_ps(v * ux), vy = _mm_set1_ps(v * uy), vz = _mm_set1_ps(v * uz);
+      for (; lx + 4 <= inside_x; lx += 4) {
+        const int k = ly * T + lx;
+        const __m128 u = _mm_load_ps(sx + lx);
+        const __m128 dx = _mm_add_ps(_mm_add_ps(_mm_set1_ps(fx), _mm_mul_ps(u, _mm_set1_ps(rx))), vx);
+        const __m128 dy = _mm_add_ps(_mm_add_ps(_mm_set1_ps(fy), _mm_mul_ps(u, _mm_set1_ps(ry))), vy);
+        const __m128 dz = _mm_add_ps(_mm_add_ps(_mm_set1_ps(fz), _mm_mul_ps(u, _mm_set1_ps(rz))), vz);
+        const __m128 len2 = _mm_add_ps(_mm_add_ps(_mm_mul_ps(dx, dx), _mm_mul_ps(dy, dy)), _mm_mul_ps(dz, dz));
+        const __m128 n = _mm_div_ps(one, _mm_sqrt_ps(len2));
+        const __m128 d[3] = {_mm_mul_ps(dx, n), _mm_mul_ps(dy, n), _mm_mul_ps(dz, n)};
+        const float e[3] = {ex, ey, ez};
+        for (int a = 0; a < 3; ++a) {
+          const __m128 z = _mm_cmpeq_ps(d[a], zero);
+          const __m128 r = _mm_or_ps(_mm_and_ps(z, inf), _mm_andnot_ps(z, _mm_div_ps(one, d[a])));
+          _mm_storeu_ps(inv_dir[a] + k, r);
+          _mm_storeu_ps(origin[a] + k, _mm_set1_ps(e[a]));
+        }
+      }
+    }
+#endif
+    for (; lx < T; ++lx) {
       const int k = ly * T + lx;
       if (tile.x0 + lx > tile.x1 || tile.y0 + ly > tile.y1) {  // past the image edge: zero, never used
         for (int a = 0; a < 3; ++a) origin[a][k] = inv_dir[a][k] = 0.0f;
