@@ -168,11 +168,7 @@ struct BatchMarch : BatchPlan {
       }
       return true;
     }
-    const Compositing cs(c.p);
-    for (int j = 0; j < n; ++j) {
-      if (!composite_lane(ray, cs, o, j, acc, ctx, clear_v)) return false;
-    }
-    return true;
+    return composite_lanes(ray, Compositing(c.p), o, (1u << n) - 1u, acc, ctx) < 0;
   }
 
   // What compositing a lane reads of the caster's parameters, as locals: read through `c`, they could
@@ -185,18 +181,37 @@ struct BatchMarch : BatchPlan {
         : tf(p.tf), label_mask(p.label_mask), ert(p.ert), ert_threshold(p.ert_threshold) {}
   };
 
-  // Lane j of a batch composited exactly as take_sample would (counted, the table skipped for a value
-  // known to be clear, the label test, early termination). False once the ray has terminated.
-  [[gnu::always_inline]] bool composite_lane(const Ray& ray, const Compositing& cs, const DvrBatchOut& o, int j,
-                                             RayAccum& acc, SampleContext& ctx, float& clear_v) const {
-    ++acc.samples;
-    const float v = o.v[j];
-    if (v == clear_v) return true;
-    const float a = o.alpha[j];
-    if (!(a > 0.0f)) {
-      clear_v = v;
-      return true;
+  // The number of lanes set in an 8-bit lane mask, without popcnt (this file is compiled for the
+  // baseline target, where __builtin_popcount is a call into libgcc).
+  static std::uint32_t lane_count(unsigned m) {
+    m = m - ((m >> 1) & 0x55u);
+    m = (m & 0x33u) + ((m >> 2) & 0x33u);
+    return (m + (m >> 4)) & 0x0Fu;
+  }
+
+  // The fetched lanes of a batch (bits of `fetched`) composited in order exactly as take_sample would
+  // take them one by one: each counted; a clear one (opacity 0) changes nothing else, so only the
+  // opaque ones (o.opaque) go through the label test and the blend. The lane that terminated the ray
+  // (the lanes after it are not taken, and not counted), or -1 while it goes on.
+  [[gnu::always_inline]] int composite_lanes(const Ray& ray, const Compositing& cs, const DvrBatchOut& o,
+                                             unsigned fetched, RayAccum& acc, SampleContext& ctx) const {
+    acc.samples += lane_count(fetched);
+    for (unsigned bits = o.opaque; bits != 0u; bits &= bits - 1u) {
+      const int j = __builtin_ctz(bits);
+      if (!composite_opaque(ray, cs, o, j, acc, ctx)) {
+        acc.samples -= lane_count(fetched >> (j + 1));
+        return j;
+      }
     }
+    return -1;
+  }
+
+  // Opaque lane j of a batch composited as take_sample would (the label test, the blend, early
+  // termination; take_sample's count and its clear-value shortcut are composite_lanes' and moot).
+  // False once the ray has terminated.
+  [[gnu::always_inline]] bool composite_opaque(const Ray& ray, const Compositing& cs, const DvrBatchOut& o, int j,
+                                               RayAccum& acc, SampleContext& ctx) const {
+    const float a = o.alpha[j];
     const float t = o.t[j];  // t_entry + float(k) * dt, as take_sample's
     if (cs.label_mask && !c.visible_label(ray.at(t), ctx)) return true;
     const TransferFunctionView::Coord tc{o.i[j], o.f[j]};
@@ -268,12 +283,10 @@ struct BatchMarch : BatchPlan {
         }
         continue;
       }
-      for (unsigned bits = unsigned(visible); bits != 0u; bits &= bits - 1u) {
-        const int j = __builtin_ctz(bits);
-        if (!composite_lane(ray, cs, o, j, acc, ctx, clear_v)) {
-          k += j + 1;
-          return false;
-        }
+      const int last = composite_lanes(ray, cs, o, unsigned(visible), acc, ctx);
+      if (last >= 0) {
+        k += last + 1;
+        return false;
       }
       k += n;
     }

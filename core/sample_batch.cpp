@@ -105,7 +105,10 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, Dv
   const __m256 ux = l.ux, uy = l.uy, uz = l.uz;
   const __m256i x0 = l.x0, y0 = l.y0, z0 = l.z0;
   const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
-  if (visible == 0) return 0;
+  if (visible == 0) {
+    out.opaque = 0u;
+    return 0;
+  }
 
   // DenseGrid::sample_coord: the four x-rows of the cell, each one 4-byte gather holding (x0, x0 + 1).
   const __m256 fx = _mm256_sub_ps(ux, _mm256_cvtepi32_ps(x0));
@@ -154,6 +157,7 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, Dv
   _mm256_store_ps(out.alpha, alpha);
   _mm256_store_ps(out.f, f);
   _mm256_store_si256(reinterpret_cast<__m256i*>(out.i), i);
+  out.opaque = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(alpha, zero, _CMP_GT_OQ)) & visible);
   return visible;
 }
 

@@ -38,6 +38,7 @@ struct alignas(32) DvrBatchOut {
   float alpha[8];  // the transfer function's opacity at v
   float f[8];      // the table coordinate (TransferFunctionView::Coord)
   int i[8];
+  unsigned opaque;  // the fetched lanes whose opacity is > 0 (bit j: lane j), the rest being clear
 };
 
 // True when this CPU runs the AVX2 path (checked once).
