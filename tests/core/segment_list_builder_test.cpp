@@ -232,21 +232,36 @@ TEST(SegmentListBuilder, TileBuilderNeedsADepthFirstOrder) {
 // The 4-wide slab test and its scalar twin give intersect()'s hit decision and, on a hit, its t0 and
 // t1 bit for bit (STYLE.md #15), lane for lane — including rays parallel to an axis, origins on a
 // slab's plane, inside the box, and boxes of zero thickness.
-RC_GTEST_PROP(SegmentListBuilderProperty, Slab4EqualsIntersectLaneForLane, (std::uint64_t seed)) {
-  std::uint64_t st = seed;
-  auto next = [&] {
+// The slab properties' inputs from one seed: uniform floats, coordinates that snap to a few values
+// (coincident planes and origins) and boxes, some of zero thickness.
+struct SlabInputs {
+  std::uint64_t st;
+  std::uint64_t next() {
     st = st * 6364136223846793005ull + 1442695040888963407ull;
     return st >> 11;
-  };
-  auto u = [&](float a, float b) { return a + (b - a) * float(double(next()) * 0x1.0p-53); };
-  const float grid[] = {0.0f, 0.25f, 0.5f, 1.0f};  // snapped values: coincident planes and origins
-  auto coord = [&](float a, float b) { return next() % 3 == 0 ? grid[next() % 4] : u(a, b); };
-  Box3 box;
-  for (int a = 0; a < 3; ++a) {
-    const float p = coord(-1, 1), q = next() % 8 == 0 ? p : coord(-1, 1);
-    box.lo[a] = std::min(p, q);
-    box.hi[a] = std::max(p, q);
   }
+  float u(float a, float b) { return a + (b - a) * float(double(next()) * 0x1.0p-53); }
+  float coord(float a, float b) {
+    static constexpr float kGrid[] = {0.0f, 0.25f, 0.5f, 1.0f};
+    return next() % 3 == 0 ? kGrid[next() % 4] : u(a, b);
+  }
+  Box3 box() {
+    Box3 b;
+    for (int a = 0; a < 3; ++a) {
+      const float p = coord(-1, 1), q = next() % 8 == 0 ? p : coord(-1, 1);
+      b.lo[a] = std::min(p, q);
+      b.hi[a] = std::max(p, q);
+    }
+    return b;
+  }
+};
+
+RC_GTEST_PROP(SegmentListBuilderProperty, Slab4EqualsIntersectLaneForLane, (std::uint64_t seed)) {
+  SlabInputs in{seed};
+  auto next = [&] { return in.next(); };
+  auto u = [&](float a, float b) { return in.u(a, b); };
+  auto coord = [&](float a, float b) { return in.coord(a, b); };
+  const Box3 box = in.box();
   alignas(16) float o[3][8], inv[3][8];
   Ray rays[8];
   for (int k = 0; k < 8; ++k) {
@@ -290,20 +305,11 @@ RC_GTEST_PROP(SegmentListBuilderProperty, Slab4EqualsIntersectLaneForLane, (std:
 // Perspective rays share their origin: the Fast path's slab test with the box taken relative to it
 // once (slab4_shared, both paths) is bit for bit slab4's on the same rays, lane for lane.
 RC_GTEST_PROP(SegmentListBuilderProperty, Slab4SharedEqualsSlab4LaneForLane, (std::uint64_t seed)) {
-  std::uint64_t st = seed;
-  auto next = [&] {
-    st = st * 6364136223846793005ull + 1442695040888963407ull;
-    return st >> 11;
-  };
-  auto u = [&](float a, float b) { return a + (b - a) * float(double(next()) * 0x1.0p-53); };
-  const float grid[] = {0.0f, 0.25f, 0.5f, 1.0f};
-  auto coord = [&](float a, float b) { return next() % 3 == 0 ? grid[next() % 4] : u(a, b); };
-  Box3 box;
-  for (int a = 0; a < 3; ++a) {
-    const float p = coord(-1, 1), q = next() % 8 == 0 ? p : coord(-1, 1);
-    box.lo[a] = std::min(p, q);
-    box.hi[a] = std::max(p, q);
-  }
+  SlabInputs in{seed};
+  auto next = [&] { return in.next(); };
+  auto u = [&](float a, float b) { return in.u(a, b); };
+  auto coord = [&](float a, float b) { return in.coord(a, b); };
+  const Box3 box = in.box();
   const vec3 origin(coord(-2, 2), coord(-2, 2), coord(-2, 2));
   alignas(16) float o[3][8], inv[3][8];
   for (int k = 0; k < 8; ++k) {
