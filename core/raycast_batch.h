@@ -193,44 +193,65 @@ struct BatchMarch : BatchPlan {
   // take them one by one: each counted; a clear one (opacity 0) changes nothing else, so only the
   // opaque ones (o.opaque) go through the label test and the blend. The lane that terminated the ray
   // (the lanes after it are not taken, and not counted), or -1 while it goes on.
+  // With SSE2 the accumulator stays in registers over the batch (colour and opacity as one vector,
+  // the opacity also as a scalar for the next lane's weight) and is stored once at the end: through
+  // memory, each lane's blend waited on the previous lane's store (a store-to-load round trip on the
+  // ray's one dependency chain). The operations per lane are composite_over's, in its order; the
+  // scalar A + w is the vector's fourth lane A + w * 1 bit for bit (w * 1 == w).
   [[gnu::always_inline]] int composite_lanes(const Ray& ray, const Compositing& cs, const DvrBatchOut& o,
                                              unsigned fetched, RayAccum& acc, SampleContext& ctx) const {
     acc.samples += lane_count(fetched);
+#if defined(__SSE2__)
+    unsigned bits = o.opaque;
+    if (bits == 0u) return -1;
+    static_assert(offsetof(RayAccum, alpha) == offsetof(RayAccum, color) + 3 * sizeof(float));
+    float* const ca = &acc.color.x;
+    __m128 sum = _mm_loadu_ps(ca);  // colour, opacity
+    float alpha = acc.alpha, hit_t = acc.hit_t;
+    std::uint32_t useful = acc.useful_samples;
+    int last = -1;
+    for (; bits != 0u; bits &= bits - 1u) {
+      const int j = __builtin_ctz(bits);
+      const float t = o.t[j];  // t_entry + float(k) * dt, as take_sample's
+      if (cs.label_mask && !c.visible_label(ray.at(t), ctx)) continue;
+      // composite_over(tf.rgb_at(tc), a, ...): the colour's blend of the two table entries, then
+      // color += w * rgb, alpha += w (w * 1 in the fourth lane), four channels wide.
+      const float* e = &cs.tf.table[o.i[j]].x;
+      const __m128 e0 = _mm_loadu_ps(e), e1 = _mm_loadu_ps(e + 4);
+      const __m128 blend = _mm_add_ps(e0, _mm_mul_ps(_mm_set1_ps(o.f[j]), _mm_sub_ps(e1, e0)));
+      const __m128 rgb1 = _mm_or_ps(_mm_and_ps(blend, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0))),
+                                    _mm_setr_ps(0.0f, 0.0f, 0.0f, 1.0f));
+      const float w = (1.0f - alpha) * o.alpha[j];
+      sum = _mm_add_ps(sum, _mm_mul_ps(_mm_set1_ps(w), rgb1));
+      alpha = alpha + w;
+      // composited(): the count, the depth, early termination.
+      ++useful;
+      if (hit_t < 0.0f && alpha >= kDepthOpacity) hit_t = t;
+      if (cs.ert && alpha >= cs.ert_threshold) {
+        last = j;
+        break;
+      }
+    }
+    _mm_storeu_ps(ca, sum);
+    acc.hit_t = hit_t;
+    acc.useful_samples = useful;
+    if (last >= 0) {
+      acc.done = true;
+      acc.samples -= lane_count(fetched >> (last + 1));
+    }
+    return last;
+#else
     for (unsigned bits = o.opaque; bits != 0u; bits &= bits - 1u) {
       const int j = __builtin_ctz(bits);
-      if (!composite_opaque(ray, cs, o, j, acc, ctx)) {
+      const float t = o.t[j];
+      if (cs.label_mask && !c.visible_label(ray.at(t), ctx)) continue;
+      const TransferFunctionView::Coord tc{o.i[j], o.f[j]};
+      if (!RayCaster<Sampler>::composite_over(cs.tf.rgb_at(tc), o.alpha[j], acc, t, cs.ert, cs.ert_threshold)) {
         acc.samples -= lane_count(fetched >> (j + 1));
         return j;
       }
     }
     return -1;
-  }
-
-  // Opaque lane j of a batch composited as take_sample would (the label test, the blend, early
-  // termination; take_sample's count and its clear-value shortcut are composite_lanes' and moot).
-  // False once the ray has terminated.
-  [[gnu::always_inline]] bool composite_opaque(const Ray& ray, const Compositing& cs, const DvrBatchOut& o, int j,
-                                               RayAccum& acc, SampleContext& ctx) const {
-    const float a = o.alpha[j];
-    const float t = o.t[j];  // t_entry + float(k) * dt, as take_sample's
-    if (cs.label_mask && !c.visible_label(ray.at(t), ctx)) return true;
-    const TransferFunctionView::Coord tc{o.i[j], o.f[j]};
-#if defined(__SSE2__)
-    // RayCaster::composite_over of tf.rgb_at(tc) four channels wide: the colour's blend of the two
-    // table entries and acc.color += w * rgb, acc.alpha += w (w * 1 in the fourth lane) are the same
-    // IEEE operations per channel, in the same order.
-    static_assert(offsetof(RayAccum, alpha) == offsetof(RayAccum, color) + 3 * sizeof(float));
-    const float* e = &cs.tf.table[tc.i].x;
-    const __m128 e0 = _mm_loadu_ps(e), e1 = _mm_loadu_ps(e + 4);
-    const __m128 blend = _mm_add_ps(e0, _mm_mul_ps(_mm_set1_ps(tc.f), _mm_sub_ps(e1, e0)));
-    const __m128 rgb1 = _mm_or_ps(_mm_and_ps(blend, _mm_castsi128_ps(_mm_setr_epi32(-1, -1, -1, 0))),
-                                  _mm_setr_ps(0.0f, 0.0f, 0.0f, 1.0f));
-    const float w = (1.0f - acc.alpha) * a;
-    float* const ca = &acc.color.x;
-    _mm_storeu_ps(ca, _mm_add_ps(_mm_loadu_ps(ca), _mm_mul_ps(_mm_set1_ps(w), rgb1)));
-    return RayCaster<Sampler>::composited(acc, t, cs.ert, cs.ert_threshold);
-#else
-    return RayCaster<Sampler>::composite_over(cs.tf.rgb_at(tc), a, acc, t, cs.ert, cs.ert_threshold);
 #endif
   }
 
