@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <vector>
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
@@ -322,12 +323,22 @@ struct BatchPlans {
   const FineOccupancyView* fine = nullptr;
   BatchPlan none, with_fine;
 
+  std::vector<float> alpha;  // the table's opacities alone, which the batch's gathers read (DvrBatchArgs::tf_alpha)
+
   BatchPlans(const RayCaster<Sampler>& caster, const FineOccupancyView* f) : fine(f) {
     if constexpr (BatchMarch<Sampler>::kElem > 0) {
       none = BatchMarch<Sampler>::plan(caster, nullptr);
       with_fine = BatchMarch<Sampler>::plan(caster, f);
+      if (none.ok || with_fine.ok) {
+        const TransferFunctionView& tf = caster.p.tf;
+        alpha.resize(std::size_t(tf.size));
+        for (int i = 0; i < tf.size; ++i) alpha[std::size_t(i)] = tf.table[i].w;
+        none.b.tf_alpha = with_fine.b.tf_alpha = alpha.data();
+      }
     }
   }
+  BatchPlans(const BatchPlans&) = delete;  // the plans point into `alpha`
+  BatchPlans& operator=(const BatchPlans&) = delete;
   // The plan of spans marched with `f`, or null for a fine view these plans were not made for.
   const BatchPlan* find(const FineOccupancyView* f) const { return f == nullptr ? &none : f == fine ? &with_fine : nullptr; }
 };

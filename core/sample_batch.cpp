@@ -146,10 +146,16 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, Dv
   x = _mm256_and_ps(_mm256_cmp_ps(x, zero, _CMP_GT_OQ), xm);                  // x > 0 ? that : 0 (NaN: 0)
   const __m256i i = _mm256_min_epi32(_mm256_cvttps_epi32(x), _mm256_set1_epi32(a.tf_size - 2));
   const __m256 f = _mm256_sub_ps(x, _mm256_cvtepi32_ps(i));
-  const __m256i wi = _mm256_add_epi32(_mm256_slli_epi32(i, 2), _mm256_set1_epi32(3));
   const __m256 live_ps = _mm256_castsi256_ps(live);
-  const __m256 w0 = _mm256_mask_i32gather_ps(zero, a.tf_table, wi, live_ps, 4);
-  const __m256 w1 = _mm256_mask_i32gather_ps(zero, a.tf_table + 4, wi, live_ps, 4);
+  __m256 w0, w1;
+  if (a.tf_alpha) {
+    w0 = _mm256_mask_i32gather_ps(zero, a.tf_alpha, i, live_ps, 4);
+    w1 = _mm256_mask_i32gather_ps(zero, a.tf_alpha + 1, i, live_ps, 4);
+  } else {
+    const __m256i wi = _mm256_add_epi32(_mm256_slli_epi32(i, 2), _mm256_set1_epi32(3));
+    w0 = _mm256_mask_i32gather_ps(zero, a.tf_table, wi, live_ps, 4);
+    w1 = _mm256_mask_i32gather_ps(zero, a.tf_table + 4, wi, live_ps, 4);
+  }
   const __m256 alpha = _mm256_add_ps(w0, _mm256_mul_ps(f, _mm256_sub_ps(w1, w0)));
 
   _mm256_store_ps(out.t, l.t);

@@ -28,6 +28,8 @@ struct DvrBatchArgs {
   vec3 origin{0.0f}, dir{0.0f};
   float t_entry = 0.0f, dt = 1.0f;
   const float* tf_table = nullptr;  // vec4 entries, w = opacity
+  const float* tf_alpha = nullptr;  // null, or the table's opacities alone (tf_alpha[i] == tf_table[4 * i + 3]):
+                                    // a quarter of the bytes the opacity gathers touch
   int tf_size = 0;
   float tf_vmin = 0.0f, tf_inv_step = 0.0f;
 };
