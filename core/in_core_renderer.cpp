@@ -4,6 +4,7 @@
 #include <optional>
 
 #include "core/block_metadata.h"
+#include "core/bricked_volume.h"
 #include "core/cast_frame.h"
 #include "core/culling.h"
 #include "core/error.h"
@@ -11,6 +12,7 @@
 #include "core/occupancy_tree.h"
 #include "core/octree_skip.h"
 #include "core/raycast.h"
+#include "core/sample_batch.h"
 
 namespace sl {
 
@@ -43,6 +45,9 @@ struct InCoreRenderer::State {
   };
   FineBits fine[2];
   int fine_recent = 0;  // the entry used last
+  // The CPU batch's bricked copy of the volume (core/bricked_volume.h), made at its first batched frame.
+  const Volume* bricks_volume = nullptr;
+  std::optional<BrickedVolume> bricks;
 };
 
 InCoreRenderer::InCoreRenderer() : state_(std::make_unique<State>()) {}
@@ -63,18 +68,18 @@ DenseGrid<T> grid_of(const Volume* v) {
 
 template <class VT, class LT>
 void render_typed(const Scene& scene, const RenderSettings& s, const CastParams& params, const SkipInputs& skip,
-                  Frame& frame) {
-  RayCaster<DenseSampler<VT, LT>> caster{params, {grid_of<VT>(scene.volume), grid_of<LT>(scene.labels)}};
+                  const BrickedVolume* bricks, Frame& frame) {
+  RayCaster<DenseSampler<VT, LT>> caster{params, {grid_of<VT>(scene.volume), grid_of<LT>(scene.labels), bricks}};
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
   cast_frame(caster, gen, Box3{vec3(0.0f), scene.volume->desc().extent()}, skip, frame);
 }
 
 template <class VT>
 void render_labels_typed(const Scene& scene, const RenderSettings& s, const CastParams& p, const SkipInputs& k,
-                         Frame& f) {
-  if (!scene.labels) return render_typed<VT, std::uint8_t>(scene, s, p, k, f);
+                         const BrickedVolume* bricks, Frame& f) {
+  if (!scene.labels) return render_typed<VT, std::uint8_t>(scene, s, p, k, bricks, f);
   dispatch_label(
-      scene.labels->type(), [&](auto tag) { render_typed<VT, decltype(tag)>(scene, s, p, k, f); },
+      scene.labels->type(), [&](auto tag) { render_typed<VT, decltype(tag)>(scene, s, p, k, bricks, f); },
       [] { throw InputError("--labels", "label volume must be of an integer type"); });
 }
 
@@ -191,6 +196,23 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
   return view;
 }
 
+const BrickedVolume* InCoreRenderer::bricked_volume(const Scene& scene, const CastParams& p, Stats& st) {
+  State& S = *state_;
+  // Where the batch can run on this volume (BatchMarch::plan's conditions that hold for the whole frame).
+  const VoxelType type = scene.volume->type();
+  const int elem = type == VoxelType::U8 ? 1 : type == VoxelType::U16 ? 2 : 0;
+  const bool batch = p.simd && p.mode == RenderMode::Dvr && !p.lighting.enabled && p.filter == Filter::Linear &&
+                     elem > 0 && sample_batch_available();
+  if (!batch || !BrickedVolume::supported(scene.volume->dims(), elem)) return nullptr;
+  if (S.bricks_volume != scene.volume || !S.bricks) {
+    Timer t;
+    S.bricks.emplace(scene.volume->data(), scene.volume->dims(), elem);
+    S.bricks_volume = scene.volume;
+    st.time_ms.metadata += t.ms();
+  }
+  return &*S.bricks;
+}
+
 Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {
   validate(scene, s);
   Timer total;
@@ -204,8 +226,9 @@ Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {
   if (caster_) {
     caster_(scene, s, p, skip, frame);
   } else {
+    const BrickedVolume* bricks = bricked_volume(scene, p, frame.stats);
     dispatch_voxel(scene.volume->type(),
-                   [&](auto tag) { render_labels_typed<decltype(tag)>(scene, s, p, skip, frame); });
+                   [&](auto tag) { render_labels_typed<decltype(tag)>(scene, s, p, skip, bricks, frame); });
   }
   pipeline_.finish_frame(frame, s, state_->tree ? &*state_->tree : nullptr, gen, total);
   return frame;

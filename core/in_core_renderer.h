@@ -14,6 +14,7 @@ namespace sl {
 struct CullParams;
 struct FineOccupancyView;
 struct SkipInputs;
+class BrickedVolume;
 
 class InCoreRenderer {
  public:
@@ -42,6 +43,9 @@ class InCoreRenderer {
                               const LabelSet* labels, const RayGenerator& gen, Stats& st);
   // The fine occupancy grid for SparseLeap (core/fine_occupancy.h), built or re-derived as needed.
   FineOccupancyView fine_occupancy(const Scene& scene, const RenderSettings& s, const CullParams& cull, Stats& st);
+  // The volume copied into bricks for the CPU batch, made once per volume where the batch can run
+  // (u8/u16, DVR unlit, trilinear, --simd on, AVX2), else null; the time counts as metadata.
+  const BrickedVolume* bricked_volume(const Scene& scene, const CastParams& p, Stats& st);
 
   std::unique_ptr<State> state_;
   FramePipeline pipeline_;

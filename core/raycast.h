@@ -50,10 +50,15 @@ struct SampleContext {
 };
 
 // The in-core sampler: dense intensity and optional labels at one level.
+class BrickedVolume;
+
 template <class VolT, class LabT>
 struct DenseSampler {
   DenseGrid<VolT> volume;
   DenseGrid<LabT> labels;  // labels.data == nullptr: no label volume
+  // Host: `volume` copied into bricks (core/bricked_volume.h), which the CPU's batched DVR reads instead
+  // of the dense rows (the same voxels); null: none. The scalar and device code never read it.
+  const BrickedVolume* bricks = nullptr;
 
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext&) const { return volume.sample(p); }
   // From the clamped voxel coordinate the voxel mask computed (its volume is this one; take_sample).

@@ -12,6 +12,7 @@
 #include <emmintrin.h>
 #endif
 
+#include "core/bricked_volume.h"
 #include "core/fine_occupancy.h"
 #include "core/raycast.h"
 #include "core/sample_batch.h"
@@ -92,6 +93,10 @@ struct BatchMarch : BatchPlan {
     b.inv_spacing = g.inv_spacing;
     b.hi = vec3(g.dims - 1);
     b.bytes = std::int64_t(g.dims.x) * g.dims.y * g.dims.z * b.elem_size;
+    if (const BrickedVolume* bricks = c.volume.bricks) {
+      b.bricks = bricks->data();
+      b.brick_counts = bricks->bricks();
+    }
     b.dt = p.dt;
     b.tf_table = &p.tf.table[0].x;
     b.tf_size = p.tf.size;

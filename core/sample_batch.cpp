@@ -4,6 +4,8 @@
 // scalar code does.
 #include "core/sample_batch.h"
 
+#include "core/bricked_volume.h"
+
 #if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
 #include <immintrin.h>
 #define SL_BATCH_AVX2 1
@@ -26,6 +28,9 @@ bool sample_batch_fits(const DvrBatchArgs& a) {
   if (a.dims.x <= 0 || a.dims.y <= 0 || a.dims.z <= 0 || a.bytes < 4 || a.bytes > kLimit) return false;
   if (std::int64_t(a.dims.x) * a.dims.y * a.dims.z * a.elem_size != a.bytes) return false;
   if (a.mask_bits && std::int64_t(a.mask_plane_words) * a.dims.z * 2 > kLimit) return false;
+  if (a.bricks && (!BrickedVolume::supported(a.dims, a.elem_size) || a.brick_counts != BrickedVolume::brick_counts(a.dims))) {
+    return false;
+  }
   return a.tf_table != nullptr && a.tf_size >= 2;
 }
 
@@ -98,49 +103,11 @@ SL_AVX2 __m256i mask_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live) 
   return _mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one));
 }
 
-// Value and opacity of the live lanes; -1 when a lane's last row would read past the volume.
-template <int kElem>
-SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, DvrBatchOut& out) {
+// The transfer function's opacity at the lanes' values v (TransferFunctionView::coord and alpha_at),
+// and the batch's output.
+SL_AVX2 int classify_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, int visible, __m256 v,
+                           DvrBatchOut& out) {
   const __m256 zero = _mm256_setzero_ps();
-  const __m256 ux = l.ux, uy = l.uy, uz = l.uz;
-  const __m256i x0 = l.x0, y0 = l.y0, z0 = l.z0;
-  const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
-  if (visible == 0) {
-    out.opaque = 0u;
-    return 0;
-  }
-
-  // DenseGrid::sample_coord: the four x-rows of the cell, each one 4-byte gather holding (x0, x0 + 1).
-  const __m256 fx = _mm256_sub_ps(ux, _mm256_cvtepi32_ps(x0));
-  const __m256 fy = _mm256_sub_ps(uy, _mm256_cvtepi32_ps(y0));
-  const __m256 fz = _mm256_sub_ps(uz, _mm256_cvtepi32_ps(z0));
-  const __m256i one = _mm256_set1_epi32(1);
-  const int sx = a.dims.x, sxy = a.dims.x * a.dims.y;
-  const __m256i has_dx = _mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.x), _mm256_add_epi32(x0, one));
-  const __m256i dy = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.y), _mm256_add_epi32(y0, one)),
-                                      _mm256_set1_epi32(sx * kElem));
-  const __m256i dz = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.z), _mm256_add_epi32(z0, one)),
-                                      _mm256_set1_epi32(sxy * kElem));
-  __m256i off = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z0, _mm256_set1_epi32(sxy)),
-                                                  _mm256_mullo_epi32(y0, _mm256_set1_epi32(sx))),
-                                 x0);
-  if constexpr (kElem == 2) off = _mm256_slli_epi32(off, 1);
-  const __m256i last = _mm256_add_epi32(off, _mm256_add_epi32(dy, dz));
-  // A lane whose last row starts within 4 bytes of the end: the gather would read past the volume.
-  if (_mm256_movemask_ps(_mm256_castsi256_ps(
-          _mm256_and_si256(live, _mm256_cmpgt_epi32(last, _mm256_set1_epi32(int(a.bytes - 4)))))) != 0) {
-    return -1;
-  }
-  const int* base = static_cast<const int*>(a.data);
-  const __m256 c00 = row<kElem>(base, off, live, has_dx, fx);
-  const __m256 c01 = row<kElem>(base, _mm256_add_epi32(off, dy), live, has_dx, fx);
-  const __m256 c10 = row<kElem>(base, _mm256_add_epi32(off, dz), live, has_dx, fx);
-  const __m256 c11 = row<kElem>(base, last, live, has_dx, fx);
-  const __m256 c0 = _mm256_add_ps(c00, _mm256_mul_ps(fy, _mm256_sub_ps(c01, c00)));
-  const __m256 c1 = _mm256_add_ps(c10, _mm256_mul_ps(fy, _mm256_sub_ps(c11, c10)));
-  const __m256 v = _mm256_add_ps(c0, _mm256_mul_ps(fz, _mm256_sub_ps(c1, c0)));
-
-  // TransferFunctionView::coord and alpha_at.
   __m256 x = _mm256_mul_ps(_mm256_sub_ps(v, _mm256_set1_ps(a.tf_vmin)), _mm256_set1_ps(a.tf_inv_step));
   const __m256 xm = _mm256_min_ps(x, _mm256_set1_ps(float(a.tf_size - 1)));  // x < last ? x : last
   x = _mm256_and_ps(_mm256_cmp_ps(x, zero, _CMP_GT_OQ), xm);                  // x > 0 ? that : 0 (NaN: 0)
@@ -165,6 +132,73 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, Dv
   _mm256_store_si256(reinterpret_cast<__m256i*>(out.i), i);
   out.opaque = unsigned(_mm256_movemask_ps(_mm256_cmp_ps(alpha, zero, _CMP_GT_OQ)) & visible);
   return visible;
+}
+
+// Value and opacity of the live lanes; -1 when a lane's last row would read past the volume (never
+// from bricks, whose allocation has room for the last gather).
+template <int kElem>
+SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, DvrBatchOut& out) {
+  const __m256 ux = l.ux, uy = l.uy, uz = l.uz;
+  const __m256i x0 = l.x0, y0 = l.y0, z0 = l.z0;
+  const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
+  if (visible == 0) {
+    out.opaque = 0u;
+    return 0;
+  }
+
+  // DenseGrid::sample_coord: the four x-rows of the cell, each one 4-byte gather holding (x0, x0 + 1),
+  // blended along x, then y, then z.
+  const __m256 fx = _mm256_sub_ps(ux, _mm256_cvtepi32_ps(x0));
+  const __m256 fy = _mm256_sub_ps(uy, _mm256_cvtepi32_ps(y0));
+  const __m256 fz = _mm256_sub_ps(uz, _mm256_cvtepi32_ps(z0));
+  __m256i off, dy, dz, has_dx;
+  const void* data;
+  if (a.bricks) {
+    // BrickedVolume: the cell's brick (x0 / 8, ...) holds all eight voxels, the apron the clamped edge.
+    constexpr int E = BrickedVolume::kEdge;
+    const __m256i seven = _mm256_set1_epi32(BrickedVolume::kCells - 1);
+    const __m256i brick = _mm256_add_epi32(
+        _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_srli_epi32(z0, 3), _mm256_set1_epi32(a.brick_counts.y)),
+                                            _mm256_srli_epi32(y0, 3)),
+                           _mm256_set1_epi32(a.brick_counts.x)),
+        _mm256_srli_epi32(x0, 3));
+    const __m256i local = _mm256_add_epi32(
+        _mm256_add_epi32(_mm256_mullo_epi32(_mm256_and_si256(z0, seven), _mm256_set1_epi32(E * E)),
+                         _mm256_mullo_epi32(_mm256_and_si256(y0, seven), _mm256_set1_epi32(E))),
+        _mm256_and_si256(x0, seven));
+    off = _mm256_add_epi32(_mm256_mullo_epi32(brick, _mm256_set1_epi32(BrickedVolume::kVoxels)), local);
+    dy = _mm256_set1_epi32(E * kElem);
+    dz = _mm256_set1_epi32(E * E * kElem);
+    has_dx = _mm256_set1_epi32(-1);
+    data = a.bricks;
+  } else {
+    const __m256i one = _mm256_set1_epi32(1);
+    const int sx = a.dims.x, sxy = a.dims.x * a.dims.y;
+    has_dx = _mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.x), _mm256_add_epi32(x0, one));
+    dy = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.y), _mm256_add_epi32(y0, one)),
+                          _mm256_set1_epi32(sx * kElem));
+    dz = _mm256_and_si256(_mm256_cmpgt_epi32(_mm256_set1_epi32(a.dims.z), _mm256_add_epi32(z0, one)),
+                          _mm256_set1_epi32(sxy * kElem));
+    off = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z0, _mm256_set1_epi32(sxy)),
+                                            _mm256_mullo_epi32(y0, _mm256_set1_epi32(sx))),
+                           x0);
+    data = a.data;
+  }
+  if constexpr (kElem == 2) off = _mm256_slli_epi32(off, 1);
+  const __m256i last = _mm256_add_epi32(off, _mm256_add_epi32(dy, dz));
+  // A lane whose last row starts within 4 bytes of the end: the gather would read past the volume.
+  if (!a.bricks && _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
+                       live, _mm256_cmpgt_epi32(last, _mm256_set1_epi32(int(a.bytes - 4)))))) != 0) {
+    return -1;
+  }
+  const int* base = static_cast<const int*>(data);
+  const __m256 c00 = row<kElem>(base, off, live, has_dx, fx);
+  const __m256 c01 = row<kElem>(base, _mm256_add_epi32(off, dy), live, has_dx, fx);
+  const __m256 c10 = row<kElem>(base, _mm256_add_epi32(off, dz), live, has_dx, fx);
+  const __m256 c11 = row<kElem>(base, last, live, has_dx, fx);
+  const __m256 c0 = _mm256_add_ps(c00, _mm256_mul_ps(fy, _mm256_sub_ps(c01, c00)));
+  const __m256 c1 = _mm256_add_ps(c10, _mm256_mul_ps(fy, _mm256_sub_ps(c11, c10)));
+  return classify_lanes(a, l, live, visible, _mm256_add_ps(c0, _mm256_mul_ps(fz, _mm256_sub_ps(c1, c0))), out);
 }
 
 template <int kElem>

@@ -22,6 +22,9 @@ struct DvrBatchArgs {
   vec3 inv_spacing{1.0f};
   vec3 hi{0.0f};               // vec3(dims - 1)
   std::int64_t bytes = 0;      // the volume's size in bytes
+  const void* bricks = nullptr;  // the volume's BrickedVolume (core/bricked_volume.h), read instead of `data`
+                                 // (the same voxels, fewer cache lines per ray); null: none
+  ivec3 brick_counts{0};         // its bricks per axis
   const std::uint64_t* mask_bits = nullptr;  // null: every lane is fetched
   int mask_row_words = 0;      // 64-bit words
   int mask_plane_words = 0;

@@ -2,7 +2,8 @@
 // and every ray marched with it equal, bit for bit, to the scalar march (colour, alpha, depth, counts,
 // termination), with and without fine cells and the voxel mask (found by the cell walk and by the
 // scan), u8 and u16, over random volumes whose small dims put many samples at the faces and in the
-// volume's last bytes (the scalar fallback).
+// volume's last bytes (the scalar fallback); the batch reading the dense rows and reading the bricked
+// copy (core/bricked_volume.h).
 #include "core/sample_batch.h"
 
 #include <gtest/gtest.h>
@@ -11,6 +12,7 @@
 #include <cstring>
 
 #include "core/block_metadata.h"
+#include "core/bricked_volume.h"
 #include "core/culling.h"
 #include "core/fine_occupancy.h"
 #include "core/raycast.h"
@@ -55,6 +57,10 @@ void check_rays(std::uint64_t seed) {
   scalar.p.simd = false;
   auto batched = scalar;
   batched.p.simd = true;
+  // The same batch reading the volume's bricks instead of its rows.
+  const BrickedVolume bricks(sc.vol.data(), sc.desc.dims, int(sizeof(T)));
+  auto bricked = batched;
+  bricked.volume.bricks = &bricks;
 
   // Fine cells and the voxel mask of this transfer function and label set.
   const VolumeView lv = sc.lab.view();
@@ -97,19 +103,23 @@ void check_rays(std::uint64_t seed) {
     const FineOccupancyView* const views[] = {nullptr, &fv, &walked, &scanned};
     for (const FineOccupancyView* f : views) {
       // The batch's inputs worked out per span, and taken from the per-frame plans the tile loop makes.
-      const BatchPlans<DenseSampler<T, std::uint16_t>> plans(batched, f);
-      RayAccum a, b, c;
+      const BatchPlans<DenseSampler<T, std::uint16_t>> plans(batched, f), bricked_plans(bricked, f);
+      RayAccum a, b, c, d;
       scalar.march(ray, t0, k0, k1, a, false, f);
       batched.march(ray, t0, k0, k1, b, false, f);
       batched.march(ray, t0, k0, k1, c, false, f, &plans);
+      bricked.march(ray, t0, k0, k1, d, false, f, &bricked_plans);
       RC_ASSERT(same(a, b));
       RC_ASSERT(same(a, c));
+      RC_ASSERT(same(a, d));
       // A second span continues the ray as a segment list's next one does.
       scalar.march(ray, t0, k1, k_end, a, false, f);
       batched.march(ray, t0, k1, k_end, b, false, f);
       batched.march(ray, t0, k1, k_end, c, false, f, &plans);
+      bricked.march(ray, t0, k1, k_end, d, false, f, &bricked_plans);
       RC_ASSERT(same(a, b));
       RC_ASSERT(same(a, c));
+      RC_ASSERT(same(a, d));
     }
   }
 }
@@ -150,6 +160,14 @@ void check_lanes(std::uint64_t seed) {
   b.tf_size = c.p.tf.size;
   b.tf_vmin = c.p.tf.vmin;
   b.tf_inv_step = c.p.tf.inv_step;
+  // Half the time from the bricked copy: the same lanes, and never a fallback (the bricks' allocation
+  // has room for the last gather).
+  const bool from_bricks = r.next() % 2 == 0;
+  const BrickedVolume bricks(sc.vol.data(), sc.desc.dims, int(sizeof(T)));
+  if (from_bricks) {
+    b.bricks = bricks.data();
+    b.brick_counts = bricks.bricks();
+  }
   RC_ASSERT(sample_batch_fits(b));
   int fallbacks = 0;
   for (int k = 0; k < 200; k += 8) {
@@ -157,6 +175,7 @@ void check_lanes(std::uint64_t seed) {
     DvrBatchOut o;
     const int visible = dvr_batch(b, k, n, o);
     if (visible < 0) {
+      RC_ASSERT(!from_bricks);
       ++fallbacks;
       continue;
     }
@@ -172,7 +191,7 @@ void check_lanes(std::uint64_t seed) {
       RC_ASSERT(std::memcmp(&tc.f, &o.f[j], sizeof(float)) == 0);
     }
   }
-  RC_TAG(fallbacks > 0 ? "some fallback" : "no fallback");
+  RC_TAG(from_bricks ? "bricks" : fallbacks > 0 ? "rows, some fallback" : "rows, no fallback");
 }
 
 RC_GTEST_PROP(SampleBatchProperty, LanesAreTheScalarSamplesU8, (std::uint64_t seed)) { check_lanes<std::uint8_t>(seed); }

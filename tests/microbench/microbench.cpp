@@ -22,7 +22,8 @@
 //      512² view (no skipping, as method `none`): trilinear sample + TF classify + front-to-back
 //      composite, DVR. u8/u16 intensity (u16: the u8 data × 257, TF over 0..65535); _mask: label mask
 //      on (label fetch for samples with opacity > 0); _simd: CastParams::simd on, eight samples at a
-//      time (core/sample_batch.h; where the CPU has AVX2), without it the scalar caster; virtual_u8:
+//      time (core/sample_batch.h; where the CPU has AVX2) from the volume's bricks
+//      (core/bricked_volume.h, as the renderer), without it the scalar caster; virtual_u8:
 //      the out-of-core VirtualSampler (page table + brick cache, 32³ bricks, every brick of every
 //      level resident). Rays are walked
 //      tile by tile (16×16, as the renderer; tiles in a scattered order so that a short run still
@@ -55,6 +56,7 @@
 #include "cache/virtual_sampler.h"
 #include "cache/volume_source.h"
 #include "core/block_metadata.h"
+#include "core/bricked_volume.h"
 #include "core/camera.h"
 #include "core/cast_pixel.h"
 #include "core/in_core_renderer.h"
@@ -393,8 +395,12 @@ void BM_SampleDense(benchmark::State& state) {
   const BenchScene& s = scene();
   const Volume& vol = std::is_same_v<T, std::uint8_t> ? *s.intensity : s.intensity_u16;
   const TransferFunction& tf = std::is_same_v<T, std::uint8_t> ? s.tf : s.tf_u16;
-  const RayCaster<DenseSampler<T, std::uint16_t>> caster{dvr_params(tf, mask, simd),
-                                                          {grid_of<T>(vol), grid_of<std::uint16_t>(*s.labels)}};
+  // With simd the batch reads the volume's bricks, as the in-core renderer gives it (bricked_volume()).
+  std::optional<BrickedVolume> bricks;
+  if (simd) bricks.emplace(vol.data(), vol.dims(), int(sizeof(T)));
+  const RayCaster<DenseSampler<T, std::uint16_t>> caster{
+      dvr_params(tf, mask, simd),
+      {grid_of<T>(vol), grid_of<std::uint16_t>(*s.labels), bricks ? &*bricks : nullptr}};
   march_rays(state, caster);
 }
 BENCHMARK_TEMPLATE(BM_SampleDense, std::uint8_t, false, false)->Name("BM_SampleClassifyComposite/u8_dvr");
