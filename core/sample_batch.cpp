@@ -135,9 +135,11 @@ SL_AVX2 int classify_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, 
 }
 
 // Value and opacity of the live lanes; -1 when a lane's last row would read past the volume (never
-// from bricks, whose allocation has room for the last gather).
+// from bricks, whose allocation has room for the last gather). The gathers fetch the lanes of `fetch`
+// (a superset of `live`): under the voxel mask, all the batch's positions, so that they do not wait for
+// the mask's gather (their lane masks would depend on its result); only `live` lanes are reported.
 template <int kElem>
-SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, DvrBatchOut& out) {
+SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i fetch, __m256i live, DvrBatchOut& out) {
   const __m256 ux = l.ux, uy = l.uy, uz = l.uz;
   const __m256i x0 = l.x0, y0 = l.y0, z0 = l.z0;
   const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
@@ -188,30 +190,31 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, Dv
   const __m256i last = _mm256_add_epi32(off, _mm256_add_epi32(dy, dz));
   // A lane whose last row starts within 4 bytes of the end: the gather would read past the volume.
   if (!a.bricks && _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(
-                       live, _mm256_cmpgt_epi32(last, _mm256_set1_epi32(int(a.bytes - 4)))))) != 0) {
+                       fetch, _mm256_cmpgt_epi32(last, _mm256_set1_epi32(int(a.bytes - 4)))))) != 0) {
     return -1;
   }
   const int* base = static_cast<const int*>(data);
-  const __m256 c00 = row<kElem>(base, off, live, has_dx, fx);
-  const __m256 c01 = row<kElem>(base, _mm256_add_epi32(off, dy), live, has_dx, fx);
-  const __m256 c10 = row<kElem>(base, _mm256_add_epi32(off, dz), live, has_dx, fx);
-  const __m256 c11 = row<kElem>(base, last, live, has_dx, fx);
+  const __m256 c00 = row<kElem>(base, off, fetch, has_dx, fx);
+  const __m256 c01 = row<kElem>(base, _mm256_add_epi32(off, dy), fetch, has_dx, fx);
+  const __m256 c10 = row<kElem>(base, _mm256_add_epi32(off, dz), fetch, has_dx, fx);
+  const __m256 c11 = row<kElem>(base, last, fetch, has_dx, fx);
   const __m256 c0 = _mm256_add_ps(c00, _mm256_mul_ps(fy, _mm256_sub_ps(c01, c00)));
   const __m256 c1 = _mm256_add_ps(c10, _mm256_mul_ps(fy, _mm256_sub_ps(c11, c10)));
-  return classify_lanes(a, l, live, visible, _mm256_add_ps(c0, _mm256_mul_ps(fz, _mm256_sub_ps(c1, c0))), out);
+  return classify_lanes(a, l, fetch, visible, _mm256_add_ps(c0, _mm256_mul_ps(fz, _mm256_sub_ps(c1, c0))), out);
 }
 
 template <int kElem>
 __attribute__((target("avx2"))) int dvr_batch_avx2(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
   const Lanes l = lanes_at(a, consecutive(k));
   const __m256i live = first_lanes(n);
-  return sample_lanes<kElem>(a, l, a.mask_bits ? mask_lanes(a, l, live) : live, out);
+  return sample_lanes<kElem>(a, l, live, a.mask_bits ? mask_lanes(a, l, live) : live, out);
 }
 
 template <int kElem>
 __attribute__((target("avx2"))) int dvr_batch_at_avx2(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) {
   const __m256i kv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ks));
-  return sample_lanes<kElem>(a, lanes_at(a, _mm256_cvtepi32_ps(kv)), first_lanes(n), out);
+  const __m256i live = first_lanes(n);
+  return sample_lanes<kElem>(a, lanes_at(a, _mm256_cvtepi32_ps(kv)), live, live, out);
 }
 
 // For each 8-bit lane mask, the set lanes' numbers in ascending order, 4 bits each (compaction).
