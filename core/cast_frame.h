@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <bit>
 #include <cstdint>
 
 #include "core/cast_pixel.h"
@@ -14,6 +15,7 @@
 #include "core/parallel.h"
 #include "core/raycast.h"
 #include "core/segment_list.h"
+#include "core/segment_list_builder.h"
 
 namespace sl {
 
@@ -59,24 +61,43 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
   parallel_for_tiles(img.width, img.height, [&](int x0, int y0, int x1, int y1) {
     std::uint64_t samples = 0, useful = 0, rays = 0, dc_sum = 0;
     std::uint32_t misses = 0, dc_max = 0, dc_min = 0xFFFFFFFFu;
+    // pixel_span for the tile's pixels, four at a time: its rays (detail::tile_rays) and their slab
+    // tests against the volume box (detail::slab4), both bit for bit gen.ray() and intersect(); a
+    // pixel's ray is cast where the lane hits at some t > 0, pixel_span's t_exit > max(t_entry, 0).
+    constexpr int T = kTileSize;
+    struct alignas(16) TileRays {
+      float origin[3][T * T], inv_dir[3][T * T], dir[3][T * T];
+    };
+    thread_local TileRays tr;
+    detail::tile_rays(gen, ScreenRect{x0, y0, x1 - 1, y1 - 1}, tr.origin, tr.inv_dir, tr.dir);
+    const float* const o[3] = {tr.origin[0], tr.origin[1], tr.origin[2]};
+    const float* const inv[3] = {tr.inv_dir[0], tr.inv_dir[1], tr.inv_dir[2]};
+    alignas(16) float t0[4], t1[4];
     for (int y = y0; y < y1; ++y) {
-      for (int x = x0; x < x1; ++x) {
-        Ray ray;
-        float t_entry, t_exit;
-        if (!pixel_span(gen, vbox, x, y, ray, t_entry, t_exit)) continue;
-        const std::size_t i = std::size_t(y) * img.width + x;
-        RayAccum acc;
-        const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses, &plans);
-        img.rgba[i] = caster.resolve(acc);
-        samples_ch[i] = float(acc.samples);
-        dc_ch[i] = float(dc);
-        if (depth_ch) depth_ch[i] = acc.hit_t;
-        samples += acc.samples;
-        useful += acc.useful_samples;
-        dc_sum += dc;
-        dc_max = std::max(dc_max, dc);
-        dc_min = std::min(dc_min, dc);
-        ++rays;
+      for (int xg = x0; xg < x1; xg += 4) {  // x0 is a multiple of 4: groups of lanes 0..3
+        const int k0 = (y - y0) * T + (xg - x0);
+        for (unsigned hit = detail::slab4<ListBuildPath::Fast>(o, inv, std::size_t(k0), vbox, t0, t1); hit != 0u;
+             hit &= hit - 1u) {
+          const int lane = std::countr_zero(hit), x = xg + lane, k = k0 + lane;
+          if (x >= x1) break;  // past the image's edge
+          Ray ray;
+          ray.origin = vec3(tr.origin[0][k], tr.origin[1][k], tr.origin[2][k]);
+          ray.dir = vec3(tr.dir[0][k], tr.dir[1][k], tr.dir[2][k]);
+          const float t_entry = t0[lane] > 0.0f ? t0[lane] : 0.0f, t_exit = t1[lane];
+          const std::size_t i = std::size_t(y) * img.width + x;
+          RayAccum acc;
+          const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses, &plans);
+          img.rgba[i] = caster.resolve(acc);
+          samples_ch[i] = float(acc.samples);
+          dc_ch[i] = float(dc);
+          if (depth_ch) depth_ch[i] = acc.hit_t;
+          samples += acc.samples;
+          useful += acc.useful_samples;
+          dc_sum += dc;
+          dc_max = std::max(dc_max, dc);
+          dc_min = std::min(dc_min, dc);
+          ++rays;
+        }
       }
     }
     counters.samples += samples;

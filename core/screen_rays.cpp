@@ -72,7 +72,7 @@ namespace detail {
 // perspective rays four pixels at a time: the same operations per lane (sqrtps and divps round as
 // sqrtss and divss; no contraction into FMA), slab_reciprocal's +inf for either zero made by a blend.
 void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],
-               float (*inv_dir)[kTileSize * kTileSize]) {
+               float (*inv_dir)[kTileSize * kTileSize], float (*dir)[kTileSize * kTileSize]) {
   constexpr int T = kTileSize;
   alignas(16) float sx[T];
   float sy[T];
@@ -107,6 +107,7 @@ void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[
           const __m128 r = _mm_or_ps(_mm_and_ps(z, inf), _mm_andnot_ps(z, _mm_div_ps(one, d[a])));
           _mm_storeu_ps(inv_dir[a] + k, r);
           _mm_storeu_ps(origin[a] + k, _mm_set1_ps(e[a]));
+          if (dir) _mm_storeu_ps(dir[a] + k, d[a]);
         }
       }
     }
@@ -115,6 +116,7 @@ void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[
       const int k = ly * T + lx;
       if (tile.x0 + lx > tile.x1 || tile.y0 + ly > tile.y1) {  // past the image edge: zero, never used
         for (int a = 0; a < 3; ++a) origin[a][k] = inv_dir[a][k] = 0.0f;
+        if (dir) dir[0][k] = dir[1][k] = dir[2][k] = 0.0f;
         continue;
       }
       const float u = sx[lx];
@@ -125,6 +127,11 @@ void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[
         inv_dir[0][k] = slab_reciprocal(fx);
         inv_dir[1][k] = slab_reciprocal(fy);
         inv_dir[2][k] = slab_reciprocal(fz);
+        if (dir) {
+          dir[0][k] = fx;
+          dir[1][k] = fy;
+          dir[2][k] = fz;
+        }
       } else {
         const float dx = (fx + u * rx) + v * ux, dy = (fy + u * ry) + v * uy, dz = (fz + u * rz) + v * uz;
         const float n = 1.0f / std::sqrt((dx * dx + dy * dy) + dz * dz);
@@ -134,6 +141,11 @@ void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[
         inv_dir[0][k] = slab_reciprocal(dx * n);
         inv_dir[1][k] = slab_reciprocal(dy * n);
         inv_dir[2][k] = slab_reciprocal(dz * n);
+        if (dir) {
+          dir[0][k] = dx * n;
+          dir[1][k] = dy * n;
+          dir[2][k] = dz * n;
+        }
       }
     }
   }

@@ -80,9 +80,10 @@ extern template unsigned slab4_shared<ListBuildPath::Scalar>(const float* const[
                                                              const Box3&, float*, float*);
 
 // The rays of a kTileSize x kTileSize screen tile (pixel k = ly * kTileSize + lx) as structure of
-// arrays: origins and slab_reciprocal'd directions, bit for bit gen.ray()'s; zero past tile.x1, tile.y1.
+// arrays: origins and slab_reciprocal'd directions, bit for bit gen.ray()'s, and the directions
+// themselves where `dir` is given; zero past tile.x1, tile.y1.
 void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],
-               float (*inv_dir)[kTileSize * kTileSize]);
+               float (*inv_dir)[kTileSize * kTileSize], float (*dir)[kTileSize * kTileSize] = nullptr);
 
 }  // namespace detail
 

@@ -340,16 +340,19 @@ RC_GTEST_PROP(SegmentListBuilderProperty, Slab4SharedEqualsSlab4LaneForLane, (st
   }
 }
 
-// The tile builder's rays are gen.ray()'s bit for bit (perspective and orthographic, a tile at the
-// image's corner cut by both edges), zero past the edges.
+// The tile builder's (and the CPU cast's) rays are gen.ray()'s bit for bit (perspective and
+// orthographic, a tile at the image's corner cut by both edges), zero past the edges.
 TEST(SegmentListBuilder, TileRaysEqualRayGenerator) {
   constexpr int T = kTileSize;
   for (const Camera& cam : {perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f), 53.0f),
                             orthographic(vec3(100.0f, -50.0f, 80.0f), vec3(30.0f, 16.0f, 45.0f), 110.0f)}) {
     const RayGenerator gen = make_ray_generator(cam, 2 * T + 5, T + 3);
     for (const ScreenRect tile : {ScreenRect{T, 0, 2 * T - 1, T - 1}, ScreenRect{2 * T, T, 2 * T + 4, T + 2}}) {
-      alignas(16) float origin[3][T * T], inv[3][T * T];
-      detail::tile_rays(gen, tile, origin, inv);
+      alignas(16) float origin[3][T * T], inv[3][T * T], dir[3][T * T], origin2[3][T * T], inv2[3][T * T];
+      detail::tile_rays(gen, tile, origin, inv, dir);
+      detail::tile_rays(gen, tile, origin2, inv2);  // without directions: the same origins and reciprocals
+      EXPECT_EQ(std::memcmp(origin, origin2, sizeof origin), 0);
+      EXPECT_EQ(std::memcmp(inv, inv2, sizeof inv), 0);
       for (int ly = 0; ly < T; ++ly) {
         for (int lx = 0; lx < T; ++lx) {
           const int k = ly * T + lx, x = tile.x0 + lx, y = tile.y0 + ly;
@@ -357,12 +360,14 @@ TEST(SegmentListBuilder, TileRaysEqualRayGenerator) {
             if (x > tile.x1 || y > tile.y1) {
               EXPECT_EQ(origin[a][k], 0.0f);
               EXPECT_EQ(inv[a][k], 0.0f);
+              EXPECT_EQ(dir[a][k], 0.0f);
               continue;
             }
             const Ray ray = gen.ray(x, y);
             const float r = detail::slab_reciprocal(ray.dir[a]);
             EXPECT_EQ(std::memcmp(&origin[a][k], &ray.origin[a], 4), 0) << x << "," << y << " axis " << a;
             EXPECT_EQ(std::memcmp(&inv[a][k], &r, 4), 0) << x << "," << y << " axis " << a;
+            EXPECT_EQ(std::memcmp(&dir[a][k], &ray.dir[a], 4), 0) << x << "," << y << " axis " << a;
           }
         }
       }
