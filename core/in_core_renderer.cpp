@@ -1,6 +1,7 @@
 #include "core/in_core_renderer.h"
 
 #include <algorithm>
+#include <new>
 #include <optional>
 
 #include "core/block_metadata.h"
@@ -204,13 +205,18 @@ const BrickedVolume* InCoreRenderer::bricked_volume(const Scene& scene, const Ca
   const bool batch = p.simd && p.mode == RenderMode::Dvr && !p.lighting.enabled && p.filter == Filter::Linear &&
                      elem > 0 && sample_batch_available();
   if (!batch || !BrickedVolume::supported(scene.volume->dims(), elem)) return nullptr;
-  if (S.bricks_volume != scene.volume || !S.bricks) {
+  if (S.bricks_volume != scene.volume) {
     Timer t;
-    S.bricks.emplace(scene.volume->data(), scene.volume->dims(), elem);
+    S.bricks.reset();
     S.bricks_volume = scene.volume;
+    try {
+      S.bricks.emplace(scene.volume->data(), scene.volume->dims(), elem);
+    } catch (const std::bad_alloc&) {
+      // No room beside the volume: the batch reads its dense rows, as it does without bricks.
+    }
     st.time_ms.metadata += t.ms();
   }
-  return &*S.bricks;
+  return S.bricks ? &*S.bricks : nullptr;
 }
 
 Frame InCoreRenderer::render(const Scene& scene, const RenderSettings& s) {
