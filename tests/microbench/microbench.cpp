@@ -23,7 +23,8 @@
 //      composite, DVR. u8/u16 intensity (u16: the u8 data × 257, TF over 0..65535); _mask: label mask
 //      on (label fetch for samples with opacity > 0); _simd: CastParams::simd on, eight samples at a
 //      time (core/sample_batch.h; where the CPU has AVX2) from the volume's bricks
-//      (core/bricked_volume.h, as the renderer), without it the scalar caster; virtual_u8:
+//      (core/bricked_volume.h) with the frame's plans (the opacity-only table), as the renderer runs
+//      it; without it the scalar caster; virtual_u8:
 //      the out-of-core VirtualSampler (page table + brick cache, 32³ bricks, every brick of every
 //      level resident). Rays are walked
 //      tile by tile (16×16, as the renderer; tiles in a scattered order so that a short run still
@@ -372,6 +373,9 @@ DenseGrid<T> grid_of(const Volume& v) {
 template <class Sampler>
 void march_rays(benchmark::State& state, const RayCaster<Sampler>& caster) {
   const BenchScene& s = scene();
+  // The batch's per-frame plans, as the renderer's tile loop makes them (core/cast_frame.h): its
+  // inputs and the opacity-only table its gathers read.
+  const BatchPlans<Sampler> plans(caster, nullptr);
   std::size_t next = 0;
   std::uint64_t samples = 0, useful = 0;
   for (auto _ : state) {
@@ -379,7 +383,7 @@ void march_rays(benchmark::State& state, const RayCaster<Sampler>& caster) {
       const BenchScene::RaySpan& r = s.rays[next];
       next = next + 1 == s.rays.size() ? 0 : next + 1;
       RayAccum acc;
-      caster.march(r.ray, r.t_entry, 0, r.k_end, acc);
+      caster.march(r.ray, r.t_entry, 0, r.k_end, acc, false, nullptr, &plans);
       benchmark::DoNotOptimize(acc);
       samples += acc.samples;
       useful += acc.useful_samples;
