@@ -41,6 +41,49 @@ SL_HOST_DEVICE inline bool pixel_span(const RayGenerator& gen, const Box3& vbox,
 
 namespace detail {
 
+#if !defined(__CUDA_ARCH__)
+// cast_pixel's segment walk (Alg. 6) for a batch that scans the voxel mask: the sampled segments' spans
+// are handed to the batch a chunk at a time and share its queue; an UNKNOWN segment is marched on its
+// own after the queue is taken (its miss counted as cast_pixel counts it).
+template <class Sampler>
+void cast_scanned_segments(const RayCaster<Sampler>& caster, const SkipInputs& skip, BatchMarch<Sampler>& batch,
+                           const RayEvent* ev, std::uint32_t n, std::uint32_t segments, const Ray& ray, float t_entry,
+                           float t_exit, int k_end, int kc0, int kc1, RayAccum& acc, std::uint32_t& misses,
+                           const BatchPlans<Sampler>* plans) {
+  constexpr int kChunk = 32;
+  SampleSpan spans[kChunk];
+  int ns = 0;
+  typename BatchMarch<Sampler>::SpanScan q;
+  // Queues [a, b); false once the ray has terminated.
+  const auto push = [&](int a, int b) {
+    spans[ns++] = SampleSpan{a, b};
+    if (ns < kChunk) return true;
+    ns = 0;
+    return batch.scan_spans(ray, t_entry, spans, kChunk, acc, q);
+  };
+  for (std::uint32_t i = 0; i < segments; ++i) {
+    const RaySegment seg = list_segment(ev, n, i, t_exit);
+    if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
+    int k0 = sample_index(seg.t0, t_entry, caster.p.inv_dt), k1 = sample_index(seg.t1, t_entry, caster.p.inv_dt);
+    k0 = k0 > kc0 ? k0 : kc0;
+    k1 = k1 < kc1 ? k1 : kc1;
+    k1 = k1 < k_end ? k1 : k_end;  // march_span's bound
+    if (seg.cls == OccupancyClass::Unknown) {
+      const bool alive = batch.scan_spans(ray, t_entry, spans, ns, acc, q) && batch.scan_finish(ray, t_entry, acc, q);
+      ns = 0;
+      if (!alive) return;
+      if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, true, &skip.fine, plans);
+      ++misses;
+      if (acc.done) return;
+      continue;
+    }
+    if (k0 >= k1) continue;
+    if (!push(k0, k1)) return;
+  }
+  if (batch.scan_spans(ray, t_entry, spans, ns, acc, q)) batch.scan_finish(ray, t_entry, acc, q);
+}
+#endif
+
 // One pixel: walks the method's spans on the global sample grid (Alg. 6 for segment lists; kd-restart
 // for the octree). Returns the depth complexity: segments of the list, or octree nodes visited.
 // `misses` counts the UNKNOWN segments sampled (occupancy misses, resolved out of core). `plans`: the
@@ -100,6 +143,20 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
       const std::uint32_t n = skip.lists.count(pixel);
       const RayEvent* ev = skip.lists.list(pixel);
       const std::uint32_t segments = segment_count(ev, n);
+#if !defined(__CUDA_ARCH__)
+      if constexpr (BatchMarch<Sampler>::kElem > 0) {
+        // On the CPU, where the batch scans the voxel mask, the ray's spans share one queue of found
+        // samples (BatchMarch::scan_spans): the same samples, taken in fuller batches.
+        if (!exact && !acc.done) {
+          BatchMarch<Sampler> batch(caster);
+          if (batch.prepare(ray, t_entry, &skip.fine, plans) && batch.scan) {
+            cast_scanned_segments(caster, skip, batch, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc,
+                                  misses, plans);
+            return segments;
+          }
+        }
+      }
+#endif
       for (std::uint32_t k = 0; k < segments && !acc.done; ++k) {
         const RaySegment seg = list_segment(ev, n, k, t_exit);
         if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;

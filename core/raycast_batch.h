@@ -147,6 +147,52 @@ struct BatchMarch : BatchPlan {
     return alive;
   }
 
+  // The pending samples of a ray's spans marched by scan_spans: found, not yet taken.
+  struct SpanScan {
+    alignas(32) int queue[16] = {};
+    int queued = 0;
+    float clear_v = NAN;  // as march_local
+  };
+
+  // march() of the ray's ascending spans spans[0 .. n) (in-core DVR, none UNKNOWN) after a prepare()
+  // that chose the scan (`scan`): their set mask bits queued alike, so consecutive spans share batches
+  // and a short span does not end in a batch of its own; full batches are taken, the rest stays in `q`
+  // for the next call or scan_finish. The same samples in the same order as march() span by span, so
+  // the same composite, counts and termination (the lanes after the terminating one are not counted).
+  // False once the ray has terminated.
+  bool scan_spans(const Ray& ray, float t_entry, const SampleSpan* spans, int n, RayAccum& acc_out, SpanScan& q) {
+    RayAccum acc = acc_out;  // a local, as march()
+    SampleContext ctx;
+    ctx.level = c.p.lod.level_at(0.0f);
+    bool alive = true;
+    int s = 0, k = n > 0 ? spans[0].k0 : 0;
+    while (s < n) {
+      q.queued = dvr_mask_scan_spans(b, spans, n, s, k, q.queue, q.queued);
+      if (q.queued >= 8) {
+        if (!take_queued(ray, t_entry, q.queue, 8, acc, ctx, q.clear_v)) {
+          alive = false;
+          break;
+        }
+        q.queued -= 8;
+        for (int j = 0; j < q.queued; ++j) q.queue[j] = q.queue[8 + j];
+      }
+    }
+    acc_out = acc;
+    return alive;
+  }
+
+  // Takes what scan_spans left queued; false once the ray has terminated.
+  bool scan_finish(const Ray& ray, float t_entry, RayAccum& acc_out, SpanScan& q) {
+    if (q.queued == 0) return !acc_out.done;
+    RayAccum acc = acc_out;
+    SampleContext ctx;
+    ctx.level = c.p.lod.level_at(0.0f);
+    const bool alive = take_queued(ray, t_entry, q.queue, q.queued, acc, ctx, q.clear_v);
+    q.queued = 0;
+    acc_out = acc;
+    return alive;
+  }
+
  private:
   // The samples of [k, k1) whose voxel-mask bit is set, eight mask bits at a time; the ones found are
   // queued and sampled in full batches of eight (the last one partial), composited in order.

@@ -233,8 +233,8 @@ struct CompactTable {
 };
 constexpr CompactTable kCompact;
 
-__attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs& a, int& k_io, int k1, int* ks,
-                                                              int queued) {
+__attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs& a, const SampleSpan* spans,
+                                                              int n, int& s_io, int& k_io, int* ks, int queued) {
   // The per-axis constants once; the lanes' positions are lanes_at's operations on them.
   const __m256 t_entry = _mm256_set1_ps(a.t_entry), dt = _mm256_set1_ps(a.dt);
   const __m256 ox = _mm256_set1_ps(a.origin.x), oy = _mm256_set1_ps(a.origin.y), oz = _mm256_set1_ps(a.origin.z);
@@ -248,32 +248,38 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
                 low5 = _mm256_set1_epi32(31), nib = _mm256_set1_epi32(15);
   const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
   const int* bits = reinterpret_cast<const int*>(a.mask_bits);
-  int k = k_io;
-  while (k < k1 && queued < 8) {
-    const __m256i kv = _mm256_add_epi32(_mm256_set1_epi32(k), lane);
-    const __m256 t = _mm256_add_ps(t_entry, _mm256_mul_ps(_mm256_cvtepi32_ps(kv), dt));
-    const __m256 ux = _mm256_min_ps(
-        _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(ox, _mm256_mul_ps(t, dx)), ix), half), zero), hx);
-    const __m256 uy = _mm256_min_ps(
-        _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oy, _mm256_mul_ps(t, dy)), iy), half), zero), hy);
-    const __m256 uz = _mm256_min_ps(
-        _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oz, _mm256_mul_ps(t, dz)), iz), half), zero), hz);
-    const __m256i x0 = _mm256_cvttps_epi32(ux);
-    const __m256i w = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(uz), plane),
-                                                        _mm256_mullo_epi32(_mm256_cvttps_epi32(uy), row)),
-                                       _mm256_srli_epi32(x0, 5));
-    const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k1 - k), lane);
-    const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), bits, w, live, 4);
-    const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(x0, low5)), one);
-    const int m = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one))));
-    if (m != 0) {
-      const __m256i idx = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(int(kCompact.packed[m])), shifts), nib);
-      _mm256_storeu_si256(reinterpret_cast<__m256i*>(ks + queued), _mm256_permutevar8x32_epi32(kv, idx));
-      queued += __builtin_popcount(unsigned(m));
+  int s = s_io, k = k_io;
+  while (s < n && queued < 8) {
+    const int k1 = spans[s].k1;
+    while (k < k1 && queued < 8) {
+      const __m256i kv = _mm256_add_epi32(_mm256_set1_epi32(k), lane);
+      const __m256 t = _mm256_add_ps(t_entry, _mm256_mul_ps(_mm256_cvtepi32_ps(kv), dt));
+      const __m256 ux = _mm256_min_ps(
+          _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(ox, _mm256_mul_ps(t, dx)), ix), half), zero), hx);
+      const __m256 uy = _mm256_min_ps(
+          _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oy, _mm256_mul_ps(t, dy)), iy), half), zero), hy);
+      const __m256 uz = _mm256_min_ps(
+          _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oz, _mm256_mul_ps(t, dz)), iz), half), zero), hz);
+      const __m256i x0 = _mm256_cvttps_epi32(ux);
+      const __m256i w = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(uz), plane),
+                                                          _mm256_mullo_epi32(_mm256_cvttps_epi32(uy), row)),
+                                         _mm256_srli_epi32(x0, 5));
+      const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k1 - k), lane);
+      const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), bits, w, live, 4);
+      const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(x0, low5)), one);
+      const int m = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one))));
+      if (m != 0) {
+        const __m256i idx = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(int(kCompact.packed[m])), shifts), nib);
+        _mm256_storeu_si256(reinterpret_cast<__m256i*>(ks + queued), _mm256_permutevar8x32_epi32(kv, idx));
+        queued += __builtin_popcount(unsigned(m));
+      }
+      k += 8;
     }
-    k += 8;
+    if (k < k1) break;  // eight queued
+    if (++s < n) k = spans[s].k0;
   }
-  k_io = k < k1 ? k : k1;
+  s_io = s;
+  k_io = k;
   return queued;
 }
 
@@ -288,7 +294,15 @@ int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) 
 }
 
 int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued) {
-  return dvr_mask_scan_avx2(a, k, k1, ks, queued);
+  const SampleSpan span{k, k1};
+  int s = 0;
+  queued = dvr_mask_scan_avx2(a, &span, 1, s, k, ks, queued);
+  if (s == 1) k = k1;
+  return queued;
+}
+
+int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued) {
+  return dvr_mask_scan_avx2(a, spans, n, s, k, ks, queued);
 }
 
 #else
@@ -299,6 +313,10 @@ int dvr_batch(const DvrBatchArgs&, int, int, DvrBatchOut&) { return -1; }
 int dvr_batch_at(const DvrBatchArgs&, const int*, int, DvrBatchOut&) { return -1; }
 int dvr_mask_scan(const DvrBatchArgs&, int& k, int k1, int*, int queued) {
   k = k1;
+  return queued;
+}
+int dvr_mask_scan_spans(const DvrBatchArgs&, const SampleSpan*, int n, int& s, int&, int*, int queued) {
+  s = n;
   return queued;
 }
 

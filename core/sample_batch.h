@@ -67,4 +67,15 @@ int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out);
 // tested and returns the new count. ks holds 16 ints (queued < 8 on entry).
 int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued);
 
+// A run of grid samples [k0, k1) of one ray.
+struct SampleSpan {
+  int k0 = 0, k1 = 0;
+};
+
+// dvr_mask_scan over the ascending spans spans[s .. n) of one ray, from position k of spans[s]: the
+// set positions of one span and then the next are queued alike, so the spans of a ray share its
+// batches (a short span no longer ends in a batch of its own). Stops once at least eight are queued
+// (s, k: where to go on) or the spans are done (s == n).
+int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued);
+
 }  // namespace sl

@@ -382,6 +382,18 @@ SL_INLINE void append_leaf(RayEvent* list, std::uint32_t& count, float& t_seen, 
     t_seen = t_out;
     return;
   }
+  // The next leaf of a run of same-class leaves sharing faces: its ENTRY meets the previous leaf's EXIT
+  // at the same depth and, returning to the class before it, deletes it (Alg. 5, rule 3); its EXIT
+  // then takes the freed slot. Exactly add_event's two results: the list is sorted, so the event
+  // before the deleted one lies at or before the entry and the exit, later, meets no same-depth rule.
+  const float t_at = t_in > t_seen ? t_in : t_seen;  // the entry's depth after the monotonicity guard
+  if (n < cap && n >= 2u && !(eps > 0.0f) && cls != parent_cls && t_out > t_at &&
+      list[n - 1].type == std::uint8_t(EventType::Exit) && list[n - 1].t == t_at &&
+      list[n - 2].cls == std::uint8_t(cls)) {
+    list[n - 1] = detail::make_event(t_out, EventType::Exit, parent_cls);
+    t_seen = t_out;
+    return;
+  }
   append_event(list, count, t_seen, cap, t_in, EventType::Entry, cls, eps);
   append_event(list, count, t_seen, cap, t_out, EventType::Exit, parent_cls, eps);
 }

@@ -3,13 +3,16 @@
 // termination), with and without fine cells and the voxel mask (found by the cell walk and by the
 // scan), u8 and u16, over random volumes whose small dims put many samples at the faces and in the
 // volume's last bytes (the scalar fallback); the batch reading the dense rows and reading the bricked
-// copy (core/bricked_volume.h).
+// copy (core/bricked_volume.h); a ray's spans scanned together (cast_pixel's walk) as the scalar march
+// takes them one by one.
 #include "core/sample_batch.h"
 
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <algorithm>
 #include <cstring>
+#include <vector>
 
 #include "core/block_metadata.h"
 #include "core/bricked_volume.h"
@@ -121,6 +124,32 @@ void check_rays(std::uint64_t seed) {
       RC_ASSERT(same(a, c));
       RC_ASSERT(same(a, d));
     }
+    // A segment list's sampled spans (random cuts of the ray, some skipped) handed to the scan together,
+    // in chunks of random sizes (cast_pixel's scanned walk): the scalar march span by span.
+    std::vector<SampleSpan> spans;
+    for (int k = 0; k < k_end;) {
+      const int len = 1 + int(r.next() % 24u);
+      if (r.next() % 3 != 0) spans.push_back(SampleSpan{k, std::min(k + len, k_end)});
+      k += len;
+    }
+    const BatchPlans<DenseSampler<T, std::uint16_t>> plans(batched, &scanned);
+    BatchMarch<DenseSampler<T, std::uint16_t>> batch(batched);
+    RC_ASSERT(batch.prepare(ray, t0, &scanned, &plans));
+    RC_ASSERT(batch.scan);
+    RayAccum a, b;
+    for (const SampleSpan& sp : spans) {
+      if (!scalar.march(ray, t0, sp.k0, sp.k1, a, false, &scanned)) break;
+    }
+    typename BatchMarch<DenseSampler<T, std::uint16_t>>::SpanScan q;
+    bool alive = true;
+    for (std::size_t j = 0; j < spans.size() && alive;) {
+      const std::size_t n = std::min(spans.size() - j, std::size_t(1 + r.next() % 40u));
+      alive = batch.scan_spans(ray, t0, spans.data() + j, int(n), b, q);
+      j += n;
+    }
+    if (alive) alive = batch.scan_finish(ray, t0, b, q);
+    RC_ASSERT(alive == !b.done);
+    RC_ASSERT(same(a, b));
   }
 }
 
