@@ -147,13 +147,12 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
       if constexpr (BatchMarch<Sampler>::kElem > 0) {
         // On the CPU, where the batch scans the voxel mask, the ray's spans share one queue of found
         // samples (BatchMarch::scan_spans): the same samples, taken in fuller batches.
-        if (!exact && !acc.done) {
-          BatchMarch<Sampler> batch(caster);
-          if (batch.prepare(ray, t_entry, &skip.fine, plans) && batch.scan) {
-            cast_scanned_segments(caster, skip, batch, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc,
-                                  misses, plans);
-            return segments;
-          }
+        const BatchPlan* pl = plans != nullptr && !exact && !acc.done ? plans->find(&skip.fine) : nullptr;
+        if (pl != nullptr && pl->ok && pl->scan) {
+          BatchMarch<Sampler> batch(caster, *pl, ray, t_entry);
+          cast_scanned_segments(caster, skip, batch, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc,
+                                misses, plans);
+          return segments;
         }
       }
 #endif

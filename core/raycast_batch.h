@@ -55,6 +55,13 @@ struct BatchMarch : BatchPlan {
   const RayCaster<Sampler>& c;
 
   explicit BatchMarch(const RayCaster<Sampler>& caster) : c(caster) {}
+  // The batch of `pl` (which must apply: pl.ok) for one ray: begin() without a default plan first.
+  BatchMarch(const RayCaster<Sampler>& caster, const BatchPlan& pl, const Ray& ray, float t_entry)
+      : BatchPlan(pl), c(caster) {
+    b.origin = ray.origin;
+    b.dir = ray.dir;
+    b.t_entry = t_entry;
+  }
 
   // The batch's inputs for this ray, or false where it does not apply (the scalar march then runs).
   // From `plans` where they hold `fine`'s plan, else worked out here (plan()).
@@ -149,7 +156,7 @@ struct BatchMarch : BatchPlan {
 
   // The pending samples of a ray's spans marched by scan_spans: found, not yet taken.
   struct SpanScan {
-    alignas(32) int queue[16] = {};
+    alignas(32) int queue[16];  // [0, queued) found (not zeroed: the scan writes before it is read)
     int queued = 0;
     float clear_v = NAN;  // as march_local
   };

@@ -67,9 +67,10 @@ int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out);
 // tested and returns the new count. ks holds 16 ints (queued < 8 on entry).
 int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued);
 
-// A run of grid samples [k0, k1) of one ray.
+// A run of grid samples [k0, k1) of one ray. Trivial (no initializers): a ray's array of them is not
+// zeroed before it is filled.
 struct SampleSpan {
-  int k0 = 0, k1 = 0;
+  int k0, k1;
 };
 
 // dvr_mask_scan over the ascending spans spans[s .. n) of one ray, from position k of spans[s]: the
