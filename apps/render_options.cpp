@@ -91,6 +91,10 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "on|off: inside occupied fine cells, skip the samples whose 2x2x2 voxels cannot contribute (in core, "
                "u8/u16 volumes, dvr and labels, trilinear); the image is the same, fewer samples are fetched")
       ->capture_default_str();
+  c.add_option("--tight-boxes", o.tight_boxes,
+               "on|off: with the voxel mask, SparseLeap lists come from leaf boxes shrunk to the cells whose samples "
+               "can contribute (in core); the image and sample count are the same, the segments shorter")
+      ->capture_default_str();
   c.add_option("--simd", o.simd,
                "on|off: the CPU backend takes DVR samples eight at a time with AVX2 where the CPU has it (u8/u16, "
                "unlit, trilinear); the image is the same, off samples one by one")
@@ -186,6 +190,10 @@ CheckedOptions check_render_options(const RenderOptions& o) {
     throw InputError("--voxel-mask", "must be on or off, not '" + o.voxel_mask + "'");
   }
   rs.voxel_mask = o.voxel_mask == "on";
+  if (o.tight_boxes != "on" && o.tight_boxes != "off") {
+    throw InputError("--tight-boxes", "must be on or off, not '" + o.tight_boxes + "'");
+  }
+  rs.tight_boxes = o.tight_boxes == "on";
   if (o.simd != "on" && o.simd != "off") throw InputError("--simd", "must be on or off, not '" + o.simd + "'");
   rs.simd = o.simd == "on";
   rs.boxes_overlay = o.boxes;

@@ -34,6 +34,7 @@ struct RenderOptions {
   std::string block = "auto";  // auto: 8 in core, 16 out of core (kInCoreBlock, kOutOfCoreBlock)
   std::string fine_cell = "auto";  // fine occupancy cells inside SparseLeap segments: auto, 0 (off), 4, 8
   std::string voxel_mask = "on";  // on|off: the per-sample bit inside occupied fine cells
+  std::string tight_boxes = "on";  // on|off: with the voxel mask, lists from leaf boxes shrunk to its set cells
   std::string simd = "on";        // on|off: the CPU's eight-sample DVR batch (AVX2 where it runs)
   bool ert = false;
   Lighting lighting;            // --shade --ambient --diffuse --specular --shininess (dvr)

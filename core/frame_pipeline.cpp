@@ -1,5 +1,7 @@
 #include "core/frame_pipeline.h"
 
+#include <cstring>
+
 #include "core/error.h"
 #include "core/occupancy_tree.h"
 #include "core/overlay.h"
@@ -34,20 +36,31 @@ const OccupancyGeometry& FramePipeline::geometry(const OccupancyTree& tree, Stat
   return *geometry_;
 }
 
+namespace {
+
+bool same_boxes(const std::vector<OccupancyBox>& a, const std::vector<OccupancyBox>& b) {
+  return a.size() == b.size() && (a.empty() || std::memcmp(a.data(), b.data(), a.size() * sizeof(OccupancyBox)) == 0);
+}
+
+}  // namespace
+
 SegmentListView FramePipeline::lists(const OccupancyTree& tree, SkipMethod method, const RayGenerator& gen,
-                                     float eps, Stats& st) {
+                                     float eps, Stats& st, const OccupancyGeometry* tight) {
   SL_CHECK(method == SkipMethod::SparseLeap || method == SkipMethod::BBox);
+  const OccupancyGeometry* g = tight ? tight : geometry_ ? &*geometry_ : nullptr;
   const bool reuse = lists_valid_ && lists_method_ == method && lists_eps_ == eps &&
-                     lists_revision_ == tree.revision() && same_view(lists_gen_, gen);
+                     lists_revision_ == tree.revision() && same_view(lists_gen_, gen) &&
+                     (method != SkipMethod::SparseLeap || (g && same_boxes(g->boxes, lists_boxes_)));
   if (!reuse) {
     Timer t;
     if (method == SkipMethod::SparseLeap) {
       SL_CHECK(geometry_ && geometry_->tree_revision == tree.revision());
-      const std::vector<VisibilityEntry> order = build_visibility_order(tree, *geometry_, view_point(gen));
+      SL_CHECK(g->tree_revision == tree.revision() && g->boxes.size() == geometry_->boxes.size());
+      const std::vector<VisibilityEntry> order = build_visibility_order(tree, *g, view_point(gen));
       st.time_ms.order = t.ms();
       t = Timer();
-      list_stats_ = list_builder_ ? list_builder_(*geometry_, order, gen, lists_, eps)
-                                  : build_segment_lists(*geometry_, order, gen, lists_, eps);
+      list_stats_ = list_builder_ ? list_builder_(*g, order, gen, lists_, eps) : build_segment_lists(*g, order, gen, lists_, eps);
+      lists_boxes_ = g->boxes;
     } else {
       if (leaves_revision_ != tree.revision()) {
         nonempty_leaves_.clear();

@@ -41,8 +41,10 @@ class FramePipeline {
   // view, the tree, the method and the short-gap threshold `eps` are unchanged (a step, lighting or
   // opacity-scale change keeps them); otherwise rebuilt, timed into `st`. Fills st.events,
   // st.list_overflows and st.list_bytes either way.
+  // `tight` (SparseLeap, optional): geometry() of the same tree revision with other box extents
+  // (tighten_leaf_boxes), used instead of it; the lists are reused only while the boxes are the same.
   SegmentListView lists(const OccupancyTree& tree, SkipMethod method, const RayGenerator& gen, float eps,
-                        Stats& st);
+                        Stats& st, const OccupancyGeometry* tight = nullptr);
   // Ends the frame: the settings' overlays — the depth-complexity view; the occupancy boxes, when the
   // geometry was built from `tree` as it is now (null: no tree) — and the total time since `total`.
   void finish_frame(Frame& frame, const RenderSettings& settings, const OccupancyTree* tree,
@@ -65,6 +67,7 @@ class FramePipeline {
   std::uint64_t lists_revision_ = 0;
   SkipMethod lists_method_ = SkipMethod::None;
   float lists_eps_ = 0.0f;
+  std::vector<OccupancyBox> lists_boxes_;  // SparseLeap: the boxes the lists were built from
   SegmentListStats list_stats_;
   ListBuilder list_builder_;
 };

@@ -43,6 +43,9 @@ struct InCoreRenderer::State {
     bool valid = false;
     VoxelMask voxels;  // for the same inputs, built when first wanted
     bool voxels_valid = false;
+    // The pipeline's geometry with its NON_EMPTY leaf boxes shrunk to `voxels` (tighten_leaf_boxes),
+    // made when first wanted for a tree revision.
+    std::optional<OccupancyGeometry> tight;
   };
   FineBits fine[2];
   int fine_recent = 0;  // the entry used last
@@ -134,17 +137,29 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   st.tree_nodes = S.tree->node_count();
   st.tree_bytes = S.tree->memory_bytes();
 
-  pipeline_.geometry(*S.tree, st);
+  const OccupancyGeometry& geometry = pipeline_.geometry(*S.tree, st);
+  if (s.method == SkipMethod::SparseLeap && s.fine_cell != 0 && s.mode != RenderMode::Iso) {
+    in.fine = fine_occupancy(scene, s, cull, st);
+  }
   if (s.method == SkipMethod::Octree) {
     t = Timer();
     if (!S.octree) S.octree.emplace(S.metadata->grid, S.classes);
     st.time_ms.tree += t.ms();
     in.octree = S.octree->view();
   } else {
-    in.lists = pipeline_.lists(*S.tree, s.method, gen, s.gap_eps * p.dt, st);
-  }
-  if (s.method == SkipMethod::SparseLeap && s.fine_cell != 0 && s.mode != RenderMode::Iso) {
-    in.fine = fine_occupancy(scene, s, cull, st);
+    // Under the voxel mask every caster tests each sample's bit (march_local, the CPU batch), so the
+    // lists may come from the leaf boxes shrunk to the mask's set cells: the same samples, shorter spans.
+    const OccupancyGeometry* tight = nullptr;
+    if (s.method == SkipMethod::SparseLeap && s.tight_boxes && in.fine.enabled() && in.fine.voxels.enabled()) {
+      std::optional<OccupancyGeometry>& g = S.fine[S.fine_recent].tight;
+      if (!g || g->tree_revision != geometry.tree_revision) {
+        t = Timer();
+        g = tighten_leaf_boxes(*S.tree, geometry, in.fine.voxels);
+        st.time_ms.geometry += t.ms();
+      }
+      tight = &*g;
+    }
+    in.lists = pipeline_.lists(*S.tree, s.method, gen, s.gap_eps * p.dt, st, tight);
   }
   return in;
 }
@@ -187,6 +202,7 @@ FineOccupancyView InCoreRenderer::fine_occupancy(const Scene& scene, const Rende
       if (scene.labels) lv = scene.labels->view();
       S.fine[i].voxels.build(vv, scene.labels ? &lv : nullptr, cull);
       S.fine[i].voxels_valid = true;
+      S.fine[i].tight.reset();
     }
     view.voxels = S.fine[i].voxels.view();
     const double cell_voxels = double(cell) * cell * cell;

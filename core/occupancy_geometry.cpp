@@ -1,6 +1,11 @@
 #include "core/occupancy_geometry.h"
 
 #include <algorithm>
+#include <bit>
+#include <cmath>
+
+#include "core/fine_occupancy.h"
+#include "core/parallel.h"
 
 namespace sl {
 
@@ -80,6 +85,70 @@ OccupancyGeometry build_occupancy_geometry(const OccupancyTree& tree, std::size_
     }
   }
   return g;
+}
+
+namespace {
+
+// The bounds of the set cells of `mask` with cell coordinates in [c0, c1] (inclusive, per axis); false
+// when none is set.
+bool set_cell_bounds(const VoxelMaskView& mask, const ivec3& c0, const ivec3& c1, ivec3& lo, ivec3& hi) {
+  lo = c1;
+  hi = c0;
+  bool any = false;
+  const int w0 = c0.x >> 6, w1 = c1.x >> 6;
+  for (int z = c0.z; z <= c1.z; ++z) {
+    for (int y = c0.y; y <= c1.y; ++y) {
+      const std::uint64_t* row = mask.bits + std::int64_t(z) * mask.plane_words + std::int64_t(y) * mask.row_words;
+      for (int w = w0; w <= w1; ++w) {
+        std::uint64_t bits = row[w];
+        if (w == w0) bits &= ~std::uint64_t(0) << (c0.x & 63);
+        if (w == w1 && (c1.x & 63) != 63) bits &= (std::uint64_t(1) << ((c1.x & 63) + 1)) - 1u;
+        if (bits == 0u) continue;
+        any = true;
+        lo.x = std::min(lo.x, 64 * w + std::countr_zero(bits));
+        hi.x = std::max(hi.x, 64 * w + 63 - std::countl_zero(bits));
+        lo.y = std::min(lo.y, y);
+        hi.y = std::max(hi.y, y);
+        lo.z = std::min(lo.z, z);
+        hi.z = std::max(hi.z, z);
+      }
+    }
+  }
+  return any;
+}
+
+}  // namespace
+
+OccupancyGeometry tighten_leaf_boxes(const OccupancyTree& tree, const OccupancyGeometry& g, const VoxelMaskView& mask) {
+  OccupancyGeometry out = g;
+  const ivec3 last = mask.dims - 1;
+  parallel_for(std::size_t(0), out.boxes.size(), [&](std::size_t i) {
+    OccupancyBox& ob = out.boxes[i];
+    if (ob.cls != OccupancyClass::NonEmpty || !effective_leaf(tree, g, ob.node)) return;
+    Box3& b = ob.box;
+    // The cells a sample inside the box can fall in: cell floor(p / spacing - 1/2) (clamped), one
+    // more on each side for rounding.
+    ivec3 c0, c1;
+    for (int a = 0; a < 3; ++a) {
+      const float u0 = b.lo[a] * mask.inv_spacing[a] - 0.5f, u1 = b.hi[a] * mask.inv_spacing[a] - 0.5f;
+      c0[a] = std::clamp(int(std::floor(u0)) - 1, 0, last[a]);
+      c1[a] = std::clamp(int(std::floor(u1)) + 1, 0, last[a]);
+    }
+    ivec3 lo, hi;
+    if (!set_cell_bounds(mask, c0, c1, lo, hi)) {
+      b.hi = b.lo;  // no sample in it is fetched: no ray hits a box without extent
+      return;
+    }
+    // Cell c holds the samples p with p / spacing in [c + 1/2, c + 3/2) (the first and last cells also
+    // those clamped onto them: there the box keeps its face).
+    for (int a = 0; a < 3; ++a) {
+      const float spacing = 1.0f / mask.inv_spacing[a];
+      if (lo[a] > 0) b.lo[a] = std::max(b.lo[a], (float(lo[a]) + 0.25f) * spacing);
+      if (hi[a] < last[a]) b.hi[a] = std::min(b.hi[a], (float(hi[a]) + 1.75f) * spacing);
+      if (b.hi[a] < b.lo[a]) b.hi[a] = b.lo[a];
+    }
+  });
+  return out;
 }
 
 namespace {

@@ -45,6 +45,17 @@ OccupancyGeometry build_occupancy_geometry(const OccupancyTree& tree, std::size_
 OccupancyClass effective_class(const OccupancyTree& tree, const OccupancyGeometry& g, std::uint32_t node);
 bool effective_leaf(const OccupancyTree& tree, const OccupancyGeometry& g, std::uint32_t node);
 
+struct VoxelMaskView;
+
+// `g` with each NON_EMPTY box of an (effective) leaf node shrunk to the trilinear cells of `mask` set
+// inside it, a quarter voxel to spare on each side (a face of the volume stays where it is), and one
+// without any set cell made empty (zero extent). Under the mask the caster fetches no sample whose
+// cell bit is clear, and every sample whose bit is set lies in the shrunk box, so lists built from
+// the result take the same samples and give the same image, with shorter spans to scan (thin
+// structures fill a fraction of their blocks). Inner boxes keep their extent, so the boxes still nest.
+// `mask` must be on the volume's voxel grid (world origin at the corner of voxel 0).
+OccupancyGeometry tighten_leaf_boxes(const OccupancyTree& tree, const OccupancyGeometry& g, const VoxelMaskView& mask);
+
 // The leaves of the tree cut at depth_limit, clipped to the volume (wholly outside ones dropped), with
 // their effective classes (parent_cls = Invalid). The brute-force truth for tests, and the
 // "non-empty bricks" of the bounding-geometry baseline.

@@ -417,6 +417,31 @@ TEST(Cli, SimdKeepsTheImageDepthAndSampleCounts) {
   expect_one_line_error("render --simd 1 --out " + (dir / "bad").string(), "--simd");
 }
 
+// --tight-boxes (on by default) changes the lists, not what the frame records: colour, depth and the
+// per-pixel sample counts are those of the unshrunk boxes, bit for bit; fewer segments per ray.
+TEST(Cli, TightBoxesKeepTheImageDepthAndSampleCounts) {
+  const auto dir = test::scratch_dir();
+  for (const char* mode : {"dvr", "labels"}) {
+    std::vector<Image> frames;
+    for (const char* on : {"off", "on"}) {
+      const std::string out = (dir / (std::string(mode) + on)).string();
+      const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --ert --mode " +
+                                                     std::string(mode) + " --tight-boxes " + on + " --out " + out);
+      ASSERT_EQ(r.exit_code, 0) << r.output;
+      frames.push_back(read_exr(out + ".exr"));
+    }
+    EXPECT_EQ(std::memcmp(frames[0].rgba.data(), frames[1].rgba.data(), frames[0].rgba.size() * sizeof(vec4)), 0)
+        << mode;
+    EXPECT_EQ(frames[0].channels.at("depth"), frames[1].channels.at("depth")) << mode;
+    EXPECT_EQ(frames[0].channels.at("samples"), frames[1].channels.at("samples")) << mode;
+    float dc_off = 0.0f, dc_on = 0.0f;
+    for (float v : frames[0].channels.at("depth_complexity")) dc_off += v;
+    for (float v : frames[1].channels.at("depth_complexity")) dc_on += v;
+    EXPECT_NE(dc_off, dc_on) << mode << ": the shrunk boxes should change the lists";
+  }
+  expect_one_line_error("render --tight-boxes 1 --out " + (dir / "bad").string(), "--tight-boxes");
+}
+
 }  // namespace
 }  // namespace sl
 

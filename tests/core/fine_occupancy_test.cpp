@@ -6,6 +6,7 @@
 #include <rapidcheck/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <stdexcept>
 #include <type_traits>
@@ -13,6 +14,8 @@
 #include "core/block_metadata.h"
 #include "core/culling.h"
 #include "core/error.h"
+#include "core/occupancy_geometry.h"
+#include "core/occupancy_tree.h"
 #include "core/raycast.h"
 #include "tests/core/random_scene.h"
 
@@ -210,6 +213,70 @@ TEST(VoxelMask, OnlyU8AndU16VolumesAndDvrOrLabels) {
 
 // The margin the walk relies on: points up to (almost) half a voxel outside a clear cell, in the
 // volume, still sample only the cell's dilated footprint, so they contribute nothing either.
+// tighten_leaf_boxes: only NON_EMPTY leaf boxes change, each within its own extent, and every point of
+// the original box whose trilinear cell is set (the only samples the caster fetches under the mask)
+// lies in the shrunk one — random points, points on and next to the cells' boundary planes, the
+// box's corners.
+RC_GTEST_PROP(FineOccupancyProperty, TightLeafBoxesHoldEverySampleOfASetCell, (std::uint64_t seed)) {
+  Rng r{seed};
+  RandomScene sc(r);
+  const int block = 4 << (r.next() % 3);
+  const VolumeView lv = sc.lab.view();
+  const BlockMetadataTable md = compute_all_block_metadata(make_block_grid(sc.desc.dims, sc.desc.spacing, block),
+                                                           sc.vol.view(), &lv);
+  CullParams cull;
+  cull.mode = r.next() % 2 ? RenderMode::Dvr : RenderMode::Labels;
+  cull.tf = &sc.tf;
+  cull.enabled = sc.use_labels || cull.mode == RenderMode::Labels ? &sc.enabled : nullptr;
+  const std::vector<OccupancyClass> classes = classify_blocks(md, cull);
+  const OccupancyTree tree = OccupancyTree::from_block_classes(md.grid, classes);
+  const OccupancyGeometry g = build_occupancy_geometry(tree);
+  VoxelMask mask;
+  mask.build(sc.vol.view(), &lv, cull);
+  const VoxelMaskView m = mask.view();
+  const OccupancyGeometry t = tighten_leaf_boxes(tree, g, m);
+  RC_ASSERT(t.boxes.size() == g.boxes.size());
+  const auto inside = [](const Box3& b, const vec3& p) {
+    return p.x >= b.lo.x && p.x <= b.hi.x && p.y >= b.lo.y && p.y <= b.hi.y && p.z >= b.lo.z && p.z <= b.hi.z;
+  };
+  std::size_t shrunk = 0, checked = 0;
+  for (std::size_t i = 0; i < g.boxes.size(); ++i) {
+    const Box3 &b = g.boxes[i].box, &tb = t.boxes[i].box;
+    RC_ASSERT(t.boxes[i].cls == g.boxes[i].cls && t.boxes[i].parent_cls == g.boxes[i].parent_cls &&
+              t.boxes[i].node == g.boxes[i].node);
+    const bool leaf = g.boxes[i].cls == OccupancyClass::NonEmpty && effective_leaf(tree, g, g.boxes[i].node);
+    if (!leaf) {
+      RC_ASSERT(std::memcmp(&b, &tb, sizeof(Box3)) == 0);
+      continue;
+    }
+    for (int a = 0; a < 3; ++a) RC_ASSERT(tb.lo[a] >= b.lo[a] && tb.hi[a] <= b.hi[a] && tb.lo[a] <= tb.hi[a]);
+    shrunk += std::memcmp(&b, &tb, sizeof(Box3)) != 0 ? 1u : 0u;
+    const auto check = [&](vec3 p) {
+      p = glm::clamp(p, b.lo, b.hi);
+      if (!m.visible(p)) return;
+      ++checked;
+      RC_ASSERT(inside(tb, p));
+    };
+    for (int c = 0; c < 8; ++c) check(vec3(c & 1 ? b.hi.x : b.lo.x, c & 2 ? b.hi.y : b.lo.y, c & 4 ? b.hi.z : b.lo.z));
+    for (int n = 0; n < 64; ++n) {
+      vec3 p(r.uni(b.lo.x, b.hi.x), r.uni(b.lo.y, b.hi.y), r.uni(b.lo.z, b.hi.z));
+      check(p);
+      // On a cell boundary plane (voxel coordinate k + 1/2) of one axis, and one float either side.
+      const int a = int(r.next() % 3);
+      const float k = std::floor(p[a] / sc.desc.spacing[a] - 0.5f) + float(r.next() % 2);
+      p[a] = (k + 0.5f) * sc.desc.spacing[a];
+      check(p);
+      vec3 q = p;
+      q[a] = std::nextafter(p[a], -1e30f);
+      check(q);
+      q[a] = std::nextafter(p[a], 1e30f);
+      check(q);
+    }
+  }
+  RC_TAG(shrunk > 0 ? "shrunk" : "unchanged");
+  RC_TAG(checked > 0 ? "set samples checked" : "no set sample");
+}
+
 RC_GTEST_PROP(FineOccupancyProperty, HalfVoxelMarginOfClearCells, (std::uint64_t seed)) {
   Rng r{seed};
   RandomScene sc(r);
