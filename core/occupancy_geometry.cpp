@@ -141,12 +141,19 @@ OccupancyGeometry tighten_leaf_boxes(const OccupancyTree& tree, const OccupancyG
     }
     // Cell c holds the samples p with p / spacing in [c + 1/2, c + 3/2) (the first and last cells also
     // those clamped onto them: there the box keeps its face).
+    // The cells looked at reach a cell beyond the box on each side: the bounds are clipped to the box,
+    // and where nothing is left (set cells only outside it) no sample in the box is fetched.
+    Box3 t = b;
     for (int a = 0; a < 3; ++a) {
       const float spacing = 1.0f / mask.inv_spacing[a];
-      if (lo[a] > 0) b.lo[a] = std::max(b.lo[a], (float(lo[a]) + 0.25f) * spacing);
-      if (hi[a] < last[a]) b.hi[a] = std::min(b.hi[a], (float(hi[a]) + 1.75f) * spacing);
-      if (b.hi[a] < b.lo[a]) b.hi[a] = b.lo[a];
+      if (lo[a] > 0) t.lo[a] = std::max(b.lo[a], (float(lo[a]) + 0.25f) * spacing);
+      if (hi[a] < last[a]) t.hi[a] = std::min(b.hi[a], (float(hi[a]) + 1.75f) * spacing);
+      if (t.lo[a] > t.hi[a]) {
+        b.hi = b.lo;
+        return;
+      }
     }
+    b = t;
   });
   return out;
 }
