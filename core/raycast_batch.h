@@ -155,16 +155,20 @@ struct BatchMarch : BatchPlan {
   }
 
   // The pending samples of a ray's spans marched by scan_spans: found, not yet taken.
+  // Samples the scan finds before they are taken (in batches of eight): a deep queue sets up the scan
+  // once per 64 samples instead of per batch; positions scanned past a ray's termination are the cost.
+  static constexpr int kScanAhead = 64;
   struct SpanScan {
-    alignas(32) int queue[16];  // [0, queued) found (not zeroed: the scan writes before it is read)
+    alignas(32) int queue[kScanAhead + 8];  // [0, queued) found (not zeroed: written before read)
     int queued = 0;
     float clear_v = NAN;  // as march_local
   };
 
   // march() of the ray's ascending spans spans[0 .. n) (in-core DVR, none UNKNOWN) after a prepare()
   // that chose the scan (`scan`): their set mask bits queued alike, so consecutive spans share batches
-  // and a short span does not end in a batch of its own; full batches are taken, the rest stays in `q`
-  // for the next call or scan_finish. The same samples in the same order as march() span by span, so
+  // and a short span does not end in a batch of its own; once kScanAhead are found they are taken in
+  // batches of eight, and what the spans leave queued stays in `q` for the next call or scan_finish
+  // (which takes it all). The same samples in the same order as march() span by span, so
   // the same composite, counts and termination (the lanes after the terminating one are not counted).
   // False once the ray has terminated.
   bool scan_spans(const Ray& ray, float t_entry, const SampleSpan* spans, int n, RayAccum& acc_out, SpanScan& q) {
@@ -174,15 +178,18 @@ struct BatchMarch : BatchPlan {
     bool alive = true;
     int s = 0, k = n > 0 ? spans[0].k0 : 0;
     while (s < n) {
-      q.queued = dvr_mask_scan_spans(b, spans, n, s, k, q.queue, q.queued);
-      if (q.queued >= 8) {
-        if (!take_queued(ray, t_entry, q.queue, 8, acc, ctx, q.clear_v)) {
+      q.queued = dvr_mask_scan_spans(b, spans, n, s, k, q.queue, q.queued, kScanAhead);
+      if (q.queued < kScanAhead) continue;  // the spans are done: the rest waits for the next ones
+      int at = 0;
+      for (; q.queued - at >= 8; at += 8) {
+        if (!take_queued(ray, t_entry, q.queue + at, 8, acc, ctx, q.clear_v)) {
           alive = false;
           break;
         }
-        q.queued -= 8;
-        for (int j = 0; j < q.queued; ++j) q.queue[j] = q.queue[8 + j];
       }
+      if (!alive) break;
+      q.queued -= at;
+      for (int j = 0; j < q.queued; ++j) q.queue[j] = q.queue[at + j];
     }
     acc_out = acc;
     return alive;
@@ -194,7 +201,10 @@ struct BatchMarch : BatchPlan {
     RayAccum acc = acc_out;
     SampleContext ctx;
     ctx.level = c.p.lod.level_at(0.0f);
-    const bool alive = take_queued(ray, t_entry, q.queue, q.queued, acc, ctx, q.clear_v);
+    bool alive = true;
+    for (int at = 0; at < q.queued && alive; at += 8) {
+      alive = take_queued(ray, t_entry, q.queue + at, q.queued - at < 8 ? q.queued - at : 8, acc, ctx, q.clear_v);
+    }
     q.queued = 0;
     acc_out = acc;
     return alive;

@@ -234,7 +234,8 @@ struct CompactTable {
 constexpr CompactTable kCompact;
 
 __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs& a, const SampleSpan* spans,
-                                                              int n, int& s_io, int& k_io, int* ks, int queued) {
+                                                              int n, int& s_io, int& k_io, int* ks, int queued,
+                                                              int want) {
   // The per-axis constants once; the lanes' positions are lanes_at's operations on them.
   const __m256 t_entry = _mm256_set1_ps(a.t_entry), dt = _mm256_set1_ps(a.dt);
   const __m256 ox = _mm256_set1_ps(a.origin.x), oy = _mm256_set1_ps(a.origin.y), oz = _mm256_set1_ps(a.origin.z);
@@ -249,9 +250,9 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
   const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
   const int* bits = reinterpret_cast<const int*>(a.mask_bits);
   int s = s_io, k = k_io;
-  while (s < n && queued < 8) {
+  while (s < n && queued < want) {
     const int k1 = spans[s].k1;
-    while (k < k1 && queued < 8) {
+    while (k < k1 && queued < want) {
       const __m256i kv = _mm256_add_epi32(_mm256_set1_epi32(k), lane);
       const __m256 t = _mm256_add_ps(t_entry, _mm256_mul_ps(_mm256_cvtepi32_ps(kv), dt));
       const __m256 ux = _mm256_min_ps(
@@ -275,7 +276,7 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
       }
       k += 8;
     }
-    if (k < k1) break;  // eight queued
+    if (k < k1) break;  // `want` queued
     if (++s < n) k = spans[s].k0;
   }
   s_io = s;
@@ -296,13 +297,14 @@ int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) 
 int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued) {
   const SampleSpan span{k, k1};
   int s = 0;
-  queued = dvr_mask_scan_avx2(a, &span, 1, s, k, ks, queued);
+  queued = dvr_mask_scan_avx2(a, &span, 1, s, k, ks, queued, 8);
   if (s == 1) k = k1;
   return queued;
 }
 
-int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued) {
-  return dvr_mask_scan_avx2(a, spans, n, s, k, ks, queued);
+int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued,
+                        int want) {
+  return dvr_mask_scan_avx2(a, spans, n, s, k, ks, queued, want);
 }
 
 #else
@@ -315,7 +317,7 @@ int dvr_mask_scan(const DvrBatchArgs&, int& k, int k1, int*, int queued) {
   k = k1;
   return queued;
 }
-int dvr_mask_scan_spans(const DvrBatchArgs&, const SampleSpan*, int n, int& s, int&, int*, int queued) {
+int dvr_mask_scan_spans(const DvrBatchArgs&, const SampleSpan*, int n, int& s, int&, int*, int queued, int) {
   s = n;
   return queued;
 }
