@@ -40,8 +40,8 @@ struct ScreenRect {
   bool empty() const { return x0 > x1 || y0 > y1; }
 };
 
-// Every pixel whose ray can hit `box` at some t > 0 lies in this rectangle: the projected corners'
-// bounds grown by 2 pixels; the full screen when the box holds the eye or straddles the eye plane
+// Every pixel whose ray can hit `box` at some t > 0 lies in this rectangle: the pixels whose centres
+// lie within the projected corners' bounds (0.01 pixel to spare for float rounding); the full screen when the box holds the eye or straddles the eye plane
 // (perspective); empty when the box lies wholly behind the eye plane. The GL builder uses the same
 // rectangle for its primitive.
 ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen);

@@ -428,6 +428,46 @@ RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixel, (std:
   }
 }
 
+// The same at the sizes the renderer runs (256-4096 pixels a side), with boxes far away (a few pixels
+// wide, where the rectangle's margin matters most), near, and seen from their faces' planes (grazing
+// rays): every pixel whose ray hits the box lies in the rectangle. Checked on the rectangle grown by
+// 8 pixels (where rounding could push a hit out) and at 512 random pixels anywhere.
+RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixelLargeImages, (std::uint64_t seed, bool ortho)) {
+  std::uint64_t s = seed;
+  auto u = [&](float a, float b) {
+    s = s * 6364136223846793005ull + 1442695040888963407ull;
+    return a + (b - a) * float(double(s >> 11) * 0x1.0p-53);
+  };
+  const vec3 lo(u(-100, 100), u(-100, 100), u(-100, 100));
+  const Box3 box{lo, lo + vec3(u(0.05f, 8), u(0.05f, 8), u(0.05f, 8))};
+  const vec3 centre = 0.5f * (box.lo + box.hi);
+  vec3 eye = centre + glm::normalize(vec3(u(-1, 1), u(-1, 1), u(-1, 1)) + vec3(1e-3f)) * u(2, 400);
+  if (u(0, 1) < 0.4f) {  // in the plane of a face: rays graze it
+    const int a = int(u(0, 2.99f));
+    eye[a] = u(0, 1) < 0.5f ? box.lo[a] : box.hi[a];
+  }
+  const vec3 target = centre + vec3(u(-4, 4), u(-4, 4), u(-4, 4));
+  const Camera cam = ortho ? orthographic(eye, target, u(1, 60)) : perspective(eye, target, u(5, 120));
+  const int w = int(u(256, 4096)), h = int(u(256, 4096));
+  const RayGenerator gen = make_ray_generator(cam, w, h);
+  const ScreenRect r = conservative_screen_rect(box, gen);
+  const auto check = [&](int x, int y) {
+    const Interval iv = intersect(gen.ray(x, y), box);
+    if (iv.empty() || !(iv.t1 > 0.0f)) return;
+    RC_ASSERT(!r.empty());
+    RC_ASSERT(x >= r.x0 && x <= r.x1 && y >= r.y0 && y <= r.y1);
+  };
+  if (!r.empty()) {
+    const int x0 = std::max(r.x0 - 8, 0), x1 = std::min(r.x1 + 8, w - 1);
+    const int y0 = std::max(r.y0 - 8, 0), y1 = std::min(r.y1 + 8, h - 1);
+    if (std::int64_t(x1 - x0 + 1) * (y1 - y0 + 1) <= 4'000'000) {
+      for (int y = y0; y <= y1; ++y)
+        for (int x = x0; x <= x1; ++x) check(x, y);
+    }
+  }
+  for (int i = 0; i < 512; ++i) check(int(u(0, float(w) - 0.01f)), int(u(0, float(h) - 0.01f)));
+}
+
 TEST(SegmentListBuilder, BboxListsSpanFirstEntryToLastExitOfNonEmptyBoxes) {
   Fixture f;
   std::vector<OccupancyBox> leaves;
