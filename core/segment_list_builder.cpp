@@ -299,6 +299,24 @@ template <class RectOf, class Fn>
 SegmentListStats for_each_tile(const RayGenerator& gen, std::size_t items, RectOf&& rect_of, Fn&& fn) {
   const int tiles_x = (gen.width + T - 1) / T;
   const int tiles_y = (gen.height + T - 1) / T;
+  // The items of each row of tiles, in item order, made in one pass over the items (count, prefix
+  // sum, fill) instead of one pass per row.
+  std::vector<std::uint32_t> row_start(std::size_t(tiles_y) + 1, 0u), row_items;
+  for (std::size_t i = 0; i < items; ++i) {
+    const ScreenRect& r = rect_of(i);
+    if (r.empty()) continue;
+    for (int ty = r.y0 / T; ty <= r.y1 / T; ++ty) ++row_start[std::size_t(ty) + 1];
+  }
+  for (int ty = 0; ty < tiles_y; ++ty) row_start[std::size_t(ty) + 1] += row_start[std::size_t(ty)];
+  row_items.resize(row_start.back());
+  {
+    std::vector<std::uint32_t> at(row_start.begin(), row_start.end() - 1);
+    for (std::size_t i = 0; i < items; ++i) {
+      const ScreenRect& r = rect_of(i);
+      if (r.empty()) continue;
+      for (int ty = r.y0 / T; ty <= r.y1 / T; ++ty) row_items[at[std::size_t(ty)]++] = std::uint32_t(i);
+    }
+  }
   return parallel_reduce(
       0, tiles_y, 1, SegmentListStats{},
       [&](int row0, int row1, SegmentListStats st) {
@@ -307,10 +325,10 @@ SegmentListStats for_each_tile(const RayGenerator& gen, std::size_t items, RectO
         for (int ty = row0; ty != row1; ++ty) {
           for (int tx = 0; tx < tiles_x; ++tx) bins[tx].clear();
           const int y0 = ty * T, y1 = std::min(y0 + T, gen.height) - 1;
-          for (std::size_t i = 0; i < items; ++i) {
+          for (std::uint32_t j = row_start[std::size_t(ty)]; j != row_start[std::size_t(ty) + 1]; ++j) {
+            const std::uint32_t i = row_items[j];
             const ScreenRect& r = rect_of(i);
-            if (r.empty() || r.y1 < y0 || r.y0 > y1) continue;
-            for (int tx = r.x0 / T; tx <= r.x1 / T; ++tx) bins[tx].push_back(std::uint32_t(i));
+            for (int tx = r.x0 / T; tx <= r.x1 / T; ++tx) bins[tx].push_back(i);
           }
           for (int tx = 0; tx < tiles_x; ++tx) {
             if (bins[tx].empty()) continue;  // the buffer's lists start empty
