@@ -41,6 +41,15 @@ SL_HOST_DEVICE inline bool pixel_span(const RayGenerator& gen, const Box3& vbox,
 
 namespace detail {
 
+// The grid samples [k0, k1) of the ray's stretch [t0, t1), narrowed to the rank's samples [kc0, kc1).
+SL_HOST_DEVICE SL_INLINE void span_samples(float t0, float t1, float t_entry, float inv_dt, int kc0, int kc1, int& k0,
+                                           int& k1) {
+  k0 = sample_index(t0, t_entry, inv_dt);
+  k1 = sample_index(t1, t_entry, inv_dt);
+  k0 = k0 > kc0 ? k0 : kc0;
+  k1 = k1 < kc1 ? k1 : kc1;
+}
+
 #if !defined(__CUDA_ARCH__)
 // cast_pixel's segment walk (Alg. 6) for a batch that scans the voxel mask: the sampled segments' spans
 // are handed to the batch a chunk at a time and share its queue; an UNKNOWN segment is marched on its
@@ -64,9 +73,8 @@ void cast_scanned_segments(const RayCaster<Sampler>& caster, const SkipInputs& s
   for (std::uint32_t i = 0; i < segments; ++i) {
     const RaySegment seg = list_segment(ev, n, i, t_exit);
     if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
-    int k0 = sample_index(seg.t0, t_entry, caster.p.inv_dt), k1 = sample_index(seg.t1, t_entry, caster.p.inv_dt);
-    k0 = k0 > kc0 ? k0 : kc0;
-    k1 = k1 < kc1 ? k1 : kc1;
+    int k0, k1;
+    span_samples(seg.t0, seg.t1, t_entry, caster.p.inv_dt, kc0, kc1, k0, k1);
     k1 = k1 < k_end ? k1 : k_end;  // march_span's bound
     if (seg.cls == OccupancyClass::Unknown) {
       const bool alive = batch.scan_spans(ray, t_entry, spans, ns, acc, q) && batch.scan_finish(ray, t_entry, acc, q);
@@ -115,9 +123,8 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
       if (a < b) caster.march_exact(ray, a, b, acc, unknown);
       return;
     }
-    int k0 = sample_index(t0, t_entry, caster.p.inv_dt), k1 = sample_index(t1, t_entry, caster.p.inv_dt);
-    k0 = k0 > kc0 ? k0 : kc0;
-    k1 = k1 < kc1 ? k1 : kc1;
+    int k0, k1;
+    span_samples(t0, t1, t_entry, caster.p.inv_dt, kc0, kc1, k0, k1);
     if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, unknown, fine, plans);
   };
   switch (skip.method) {

@@ -309,13 +309,11 @@ SegmentListStats for_each_tile(const RayGenerator& gen, std::size_t items, RectO
   }
   for (int ty = 0; ty < tiles_y; ++ty) row_start[std::size_t(ty) + 1] += row_start[std::size_t(ty)];
   row_items.resize(row_start.back());
-  {
-    std::vector<std::uint32_t> at(row_start.begin(), row_start.end() - 1);
-    for (std::size_t i = 0; i < items; ++i) {
-      const ScreenRect& r = rect_of(i);
-      if (r.empty()) continue;
-      for (int ty = r.y0 / T; ty <= r.y1 / T; ++ty) row_items[at[std::size_t(ty)]++] = std::uint32_t(i);
-    }
+  std::vector<std::uint32_t> at(row_start.begin(), row_start.end() - 1);
+  for (std::size_t i = 0; i < items; ++i) {
+    const ScreenRect& r = rect_of(i);
+    if (r.empty()) continue;
+    for (int ty = r.y0 / T; ty <= r.y1 / T; ++ty) row_items[at[std::size_t(ty)]++] = std::uint32_t(i);
   }
   return parallel_reduce(
       0, tiles_y, 1, SegmentListStats{},

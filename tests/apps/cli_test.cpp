@@ -396,24 +396,29 @@ TEST(Cli, VoxelMaskKeepsTheImageAndFetchesFewerSamples) {
   expect_one_line_error("render --voxel-mask yes --out " + (dir / "bad").string(), "--voxel-mask");
 }
 
+// The frames of `render --FLAG off` and `--FLAG on` (64x48, --ert, CPU) in `mode`, after checking that
+// both agree bit for bit on what the frame records: colour, depth and the per-pixel sample counts.
+std::vector<Image> frames_off_and_on(const fs::path& dir, const std::string& flag, const char* mode) {
+  std::vector<Image> frames;
+  for (const char* on : {"off", "on"}) {
+    const std::string out = (dir / (flag + mode + on)).string();
+    const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --ert --mode " +
+                                                   std::string(mode) + " --" + flag + " " + on + " --out " + out);
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    frames.push_back(read_exr(out + ".exr"));
+  }
+  EXPECT_EQ(std::memcmp(frames[0].rgba.data(), frames[1].rgba.data(), frames[0].rgba.size() * sizeof(vec4)), 0)
+      << flag << ' ' << mode;
+  EXPECT_EQ(frames[0].channels.at("depth"), frames[1].channels.at("depth")) << flag << ' ' << mode;
+  EXPECT_EQ(frames[0].channels.at("samples"), frames[1].channels.at("samples")) << flag << ' ' << mode;
+  return frames;
+}
+
 // --simd (on by default: eight samples at a time where the CPU has AVX2) changes nothing the frame
 // records: colour, depth and the per-pixel sample counts are those of the scalar caster, bit for bit.
 TEST(Cli, SimdKeepsTheImageDepthAndSampleCounts) {
   const auto dir = test::scratch_dir();
-  for (const char* mode : {"dvr", "labels"}) {
-    std::vector<Image> frames;
-    for (const char* on : {"off", "on"}) {
-      const std::string out = (dir / (std::string(mode) + on)).string();
-      const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --ert --mode " +
-                                                     std::string(mode) + " --simd " + on + " --out " + out);
-      ASSERT_EQ(r.exit_code, 0) << r.output;
-      frames.push_back(read_exr(out + ".exr"));
-    }
-    EXPECT_EQ(std::memcmp(frames[0].rgba.data(), frames[1].rgba.data(), frames[0].rgba.size() * sizeof(vec4)), 0)
-        << mode;
-    EXPECT_EQ(frames[0].channels.at("depth"), frames[1].channels.at("depth")) << mode;
-    EXPECT_EQ(frames[0].channels.at("samples"), frames[1].channels.at("samples")) << mode;
-  }
+  for (const char* mode : {"dvr", "labels"}) frames_off_and_on(dir, "simd", mode);
   expect_one_line_error("render --simd 1 --out " + (dir / "bad").string(), "--simd");
 }
 
@@ -422,18 +427,7 @@ TEST(Cli, SimdKeepsTheImageDepthAndSampleCounts) {
 TEST(Cli, TightBoxesKeepTheImageDepthAndSampleCounts) {
   const auto dir = test::scratch_dir();
   for (const char* mode : {"dvr", "labels"}) {
-    std::vector<Image> frames;
-    for (const char* on : {"off", "on"}) {
-      const std::string out = (dir / (std::string(mode) + on)).string();
-      const test::RunResult r = test::run_sparseleap("render --backend cpu --size 64x48 --ert --mode " +
-                                                     std::string(mode) + " --tight-boxes " + on + " --out " + out);
-      ASSERT_EQ(r.exit_code, 0) << r.output;
-      frames.push_back(read_exr(out + ".exr"));
-    }
-    EXPECT_EQ(std::memcmp(frames[0].rgba.data(), frames[1].rgba.data(), frames[0].rgba.size() * sizeof(vec4)), 0)
-        << mode;
-    EXPECT_EQ(frames[0].channels.at("depth"), frames[1].channels.at("depth")) << mode;
-    EXPECT_EQ(frames[0].channels.at("samples"), frames[1].channels.at("samples")) << mode;
+    const std::vector<Image> frames = frames_off_and_on(dir, "tight-boxes", mode);
     float dc_off = 0.0f, dc_on = 0.0f;
     for (float v : frames[0].channels.at("depth_complexity")) dc_off += v;
     for (float v : frames[1].channels.at("depth_complexity")) dc_on += v;

@@ -404,12 +404,17 @@ TEST(SegmentListBuilder, RootOnlyTreeGivesOneUnknownSegmentPerRay) {  // DESIGN.
   EXPECT_EQ(b.count(b.pixel(0, 0)), 0u);  // misses the volume
 }
 
-RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixel, (std::uint64_t seed, bool ortho)) {
-  std::uint64_t s = seed;
-  auto u = [&](float a, float b) {
+// Uniform floats in [a, b) from a 64-bit LCG seeded by a property's argument.
+struct Uniform {
+  std::uint64_t s;
+  float operator()(float a, float b) {
     s = s * 6364136223846793005ull + 1442695040888963407ull;
     return a + (b - a) * float(double(s >> 11) * 0x1.0p-53);
-  };
+  }
+};
+
+RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixel, (std::uint64_t seed, bool ortho)) {
+  Uniform u{seed};
   const vec3 lo(u(-2, 2), u(-2, 2), u(-2, 2));
   const Box3 box{lo, lo + vec3(u(0.01f, 2), u(0.01f, 2), u(0.01f, 2))};
   const vec3 eye(u(-4, 4), u(-4, 4), u(-4, 4));
@@ -433,11 +438,7 @@ RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixel, (std:
 // rays): every pixel whose ray hits the box lies in the rectangle. Checked on the rectangle grown by
 // 8 pixels (where rounding could push a hit out) and at 512 random pixels anywhere.
 RC_GTEST_PROP(SegmentListBuilderProperty, ScreenRectContainsEveryHitPixelLargeImages, (std::uint64_t seed, bool ortho)) {
-  std::uint64_t s = seed;
-  auto u = [&](float a, float b) {
-    s = s * 6364136223846793005ull + 1442695040888963407ull;
-    return a + (b - a) * float(double(s >> 11) * 0x1.0p-53);
-  };
+  Uniform u{seed};
   const vec3 lo(u(-100, 100), u(-100, 100), u(-100, 100));
   const Box3 box{lo, lo + vec3(u(0.05f, 8), u(0.05f, 8), u(0.05f, 8))};
   const vec3 centre = 0.5f * (box.lo + box.hi);
