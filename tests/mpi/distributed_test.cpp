@@ -27,6 +27,16 @@ std::string mpirun(int ranks) {
   std::string cmd = asan ? "ASAN_OPTIONS=" + std::string(asan) + ":detect_leaks=0 " : std::string();
   cmd += "timeout 120 " SL_MPIEXEC " --oversubscribe -np " + std::to_string(ranks);
   if (::geteuid() == 0) cmd += " --allow-run-as-root";
+  // OpenMPI's session directory under one of this test process's own, not the shared
+  // /tmp/ompi.HOST.UID: ctest runs tests in parallel, and one mpirun removing that shared directory
+  // while another creates its pid.N below it fails the second ("orte_session_dir failed").
+  static const std::filesystem::path session = [] {
+    const std::filesystem::path d =
+        std::filesystem::path(SL_BINARY_DIR) / "test-scratch" / ("ompi-" + std::to_string(::getpid()));
+    std::filesystem::create_directories(d);
+    return d;
+  }();
+  cmd += " --mca orte_tmpdir_base " + session.string();
   return cmd;
 }
 
