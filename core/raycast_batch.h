@@ -142,7 +142,10 @@ struct BatchMarch : BatchPlan {
     float clear_v = NAN;  // as march_local
     bool alive;
     if (scan) {
-      alive = scan_mask(ray, t_entry, k0, k1, acc, ctx, clear_v);
+      // One span through the spans' scan (its context: the dense sampler reads no occupancy_unknown).
+      const SampleSpan span{k0, k1};
+      SpanScan q;
+      alive = scan_spans(ray, t_entry, &span, 1, acc, q) && scan_finish(ray, t_entry, acc, q);
     } else if (fine && fine->enabled() && k0 < k1) {
       FineCellWalk walk(*fine, ray, ray.at(t_entry + float(k0) * c.p.dt));
       alive = walk_cells(ray, t_entry, k0, k1, acc, ctx, clear_v, walk, *fine);
@@ -211,22 +214,6 @@ struct BatchMarch : BatchPlan {
   }
 
  private:
-  // The samples of [k, k1) whose voxel-mask bit is set, eight mask bits at a time; the ones found are
-  // queued and sampled in full batches of eight (the last one partial), composited in order.
-  bool scan_mask(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx, float& clear_v) {
-    alignas(32) int queue[16] = {};
-    int queued = 0;
-    while (k < k1) {
-      queued = dvr_mask_scan(b, k, k1, queue, queued);
-      if (queued >= 8) {
-        if (!take_queued(ray, t_entry, queue, 8, acc, ctx, clear_v)) return false;
-        queued -= 8;
-        for (int j = 0; j < queued; ++j) queue[j] = queue[8 + j];
-      }
-    }
-    return queued == 0 || take_queued(ray, t_entry, queue, queued, acc, ctx, clear_v);
-  }
-
   // Samples ks[0 .. n-1] (visible under the mask, ascending) in one batch, composited in order.
   bool take_queued(const Ray& ray, float t_entry, const int* ks, int n, RayAccum& acc, SampleContext& ctx,
                    float& clear_v) const {

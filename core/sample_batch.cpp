@@ -294,14 +294,6 @@ int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) 
   return a.elem_size == 1 ? dvr_batch_at_avx2<1>(a, ks, n, out) : dvr_batch_at_avx2<2>(a, ks, n, out);
 }
 
-int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued) {
-  const SampleSpan span{k, k1};
-  int s = 0;
-  queued = dvr_mask_scan_avx2(a, &span, 1, s, k, ks, queued, 8);
-  if (s == 1) k = k1;
-  return queued;
-}
-
 int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued,
                         int want) {
   return dvr_mask_scan_avx2(a, spans, n, s, k, ks, queued, want);
@@ -313,10 +305,6 @@ bool sample_batch_available() { return false; }
 bool sample_batch_fits(const DvrBatchArgs&) { return false; }
 int dvr_batch(const DvrBatchArgs&, int, int, DvrBatchOut&) { return -1; }
 int dvr_batch_at(const DvrBatchArgs&, const int*, int, DvrBatchOut&) { return -1; }
-int dvr_mask_scan(const DvrBatchArgs&, int& k, int k1, int*, int queued) {
-  k = k1;
-  return queued;
-}
 int dvr_mask_scan_spans(const DvrBatchArgs&, const SampleSpan*, int n, int& s, int&, int*, int queued, int) {
   s = n;
   return queued;

@@ -62,19 +62,15 @@ int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out);
 // voxel-mask test: lane j is sample ks[j]. The bits of lanes 0 .. n-1, or -1 as dvr_batch.
 int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out);
 
-// Appends to ks[queued ..] the samples of [k, k1) whose voxel-mask bit is set, ascending, eight
-// positions at a time until at least eight are queued or k reaches k1; advances k past the positions
-// tested and returns the new count. ks holds 16 ints (queued < 8 on entry).
-int dvr_mask_scan(const DvrBatchArgs& a, int& k, int k1, int* ks, int queued);
-
 // A run of grid samples [k0, k1) of one ray. Trivial (no initializers): a ray's array of them is not
 // zeroed before it is filled.
 struct SampleSpan {
   int k0, k1;
 };
 
-// dvr_mask_scan over the ascending spans spans[s .. n) of one ray, from position k of spans[s]: the
-// set positions of one span and then the next are queued alike, so the spans of a ray share its
+// Appends to ks[queued ..] the samples of the ascending spans spans[s .. n) of one ray, from position k
+// of spans[s], whose voxel-mask bit is set, ascending, testing eight positions at a time; the set
+// positions of one span and then the next are queued alike, so the spans of a ray share its
 // batches (a short span no longer ends in a batch of its own). Stops once at least `want` are queued
 // (s, k: where to go on) or the spans are done (s == n). ks holds want + 8 ints (queued < want).
 int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued,
