@@ -92,8 +92,9 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "u8/u16 volumes, dvr and labels, trilinear); the image is the same, fewer samples are fetched")
       ->capture_default_str();
   c.add_option("--tight-boxes", o.tight_boxes,
-               "on|off: with the voxel mask, SparseLeap lists come from leaf boxes shrunk to the cells whose samples "
-               "can contribute (in core); the image and sample count are the same, the segments shorter")
+               "on|off: with the voxel mask, SparseLeap lists come from leaf boxes (sparse subtrees flattened to "
+               "their leaves) shrunk to the cells whose samples can contribute (in core); the image and sample count "
+               "are the same, the segments shorter")
       ->capture_default_str();
   c.add_option("--simd", o.simd,
                "on|off: the CPU backend takes DVR samples eight at a time with AVX2 where the CPU has it (u8/u16, "

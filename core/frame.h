@@ -28,8 +28,9 @@ struct RenderSettings {
   int fine_cell = -1;      // fine occupancy cell edge in voxels inside SparseLeap segments (0: off; -1: auto,
                            // kFineCellAuto in core/fine_occupancy.h: 8 with the voxel mask, else 4)
   bool voxel_mask = true;  // inside occupied fine cells, a bit per trilinear cell (core/fine_occupancy.h)
-  bool tight_boxes = true; // with the voxel mask: SparseLeap lists from leaf boxes shrunk to its set cells
-                           // (tighten_leaf_boxes, core/occupancy_geometry.h)
+  bool tight_boxes = true; // with the voxel mask: SparseLeap lists from leaf boxes shrunk to its set cells,
+                           // sparse subtrees flattened to their leaves first (flatten_sparse_subtrees,
+                           // tighten_leaf_boxes; core/occupancy_geometry.h)
   bool simd = true;        // CPU: DVR samples eight at a time with AVX2 where it runs (core/sample_batch.h)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
   bool depth_complexity_view = false;  // image shows segments (or octree nodes) per ray

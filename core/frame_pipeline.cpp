@@ -55,7 +55,7 @@ SegmentListView FramePipeline::lists(const OccupancyTree& tree, SkipMethod metho
     Timer t;
     if (method == SkipMethod::SparseLeap) {
       SL_CHECK(geometry_ && geometry_->tree_revision == tree.revision());
-      SL_CHECK(g->tree_revision == tree.revision() && g->boxes.size() == geometry_->boxes.size());
+      SL_CHECK(g->tree_revision == tree.revision());
       const std::vector<VisibilityEntry> order = build_visibility_order(tree, *g, view_point(gen));
       st.time_ms.order = t.ms();
       t = Timer();
@@ -81,6 +81,8 @@ SegmentListView FramePipeline::lists(const OccupancyTree& tree, SkipMethod metho
   st.events = list_stats_.events;
   st.list_overflows = list_stats_.overflows;
   st.list_bytes = lists_.storage_bytes();
+  st.list_tile_entries = list_stats_.box_tile_pairs;
+  st.list_slab_tests = list_stats_.slab_tests;
   return lists_.view();
 }
 

@@ -40,9 +40,10 @@ class FramePipeline {
   // which must be current; BBox: first entry / last exit of the non-empty leaves). Reused while the
   // view, the tree, the method and the short-gap threshold `eps` are unchanged (a step, lighting or
   // opacity-scale change keeps them); otherwise rebuilt, timed into `st`. Fills st.events,
-  // st.list_overflows and st.list_bytes either way.
-  // `tight` (SparseLeap, optional): geometry() of the same tree revision with other box extents
-  // (tighten_leaf_boxes), used instead of it; the lists are reused only while the boxes are the same.
+  // st.list_overflows, st.list_bytes and the builder's work counters either way.
+  // `tight` (SparseLeap, optional): geometry() of the same tree revision with other boxes and extents
+  // (flatten_sparse_subtrees, tighten_leaf_boxes), used instead of it; the lists are reused
+  // only while the boxes are the same.
   SegmentListView lists(const OccupancyTree& tree, SkipMethod method, const RayGenerator& gen, float eps,
                         Stats& st, const OccupancyGeometry* tight = nullptr);
   // Ends the frame: the settings' overlays — the depth-complexity view; the occupancy boxes, when the

@@ -43,7 +43,8 @@ struct InCoreRenderer::State {
     bool valid = false;
     VoxelMask voxels;  // for the same inputs, built when first wanted
     bool voxels_valid = false;
-    // The pipeline's geometry with its NON_EMPTY leaf boxes shrunk to `voxels` (tighten_leaf_boxes),
+    // The pipeline's geometry with its sparse subtrees flattened to their leaves
+    // (flatten_sparse_subtrees) and its NON_EMPTY leaf boxes shrunk to `voxels` (tighten_leaf_boxes),
     // made when first wanted for a tree revision.
     std::optional<OccupancyGeometry> tight;
   };
@@ -149,12 +150,14 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   } else {
     // Under the voxel mask every caster tests each sample's bit (march_local, the CPU batch), so the
     // lists may come from the leaf boxes shrunk to the mask's set cells: the same samples, shorter spans.
+    // Sparse subtrees are flattened to their leaves first, so that their leaves are shrunk too and the
+    // lists are built from leaves instead of boxes with EMPTY boxes cut out of them.
     const OccupancyGeometry* tight = nullptr;
     if (s.method == SkipMethod::SparseLeap && s.tight_boxes && in.fine.enabled() && in.fine.voxels.enabled()) {
       std::optional<OccupancyGeometry>& g = S.fine[S.fine_recent].tight;
       if (!g || g->tree_revision != geometry.tree_revision) {
         t = Timer();
-        g = tighten_leaf_boxes(*S.tree, geometry, in.fine.voxels);
+        g = tighten_leaf_boxes(*S.tree, flatten_sparse_subtrees(*S.tree, geometry), in.fine.voxels);
         st.time_ms.geometry += t.ms();
       }
       tight = &*g;

@@ -87,6 +87,67 @@ OccupancyGeometry build_occupancy_geometry(const OccupancyTree& tree, std::size_
   return g;
 }
 
+OccupancyGeometry flatten_sparse_subtrees(const OccupancyTree& tree, const OccupancyGeometry& g) {
+  // Measured (neurites, blobs, the MRI, the default data; 512², 2 threads): frames as fast at 4 as with
+  // no bound, where 1 (never more boxes) left a third of the gain; the bound keeps a dense subtree with
+  // a few EMPTY holes nested rather than a box per leaf.
+  constexpr std::uint32_t kMaxLeavesPerBox = 4;
+  SL_CHECK(g.tree_revision == tree.revision() && g.node_box.size() == tree.nodes().size());
+  const std::size_t slots = tree.nodes().size();
+  // Per node: the sampled effective leaves and the boxes of its subtree (the node's own included).
+  std::vector<std::uint32_t> leaves(slots, 0u), boxes(slots, 0u);
+  auto count = [&](auto&& self, std::uint32_t n) -> void {
+    boxes[n] = g.node_box[n] != OccupancyGeometry::kNoBox ? 1u : 0u;
+    if (effective_leaf(tree, g, n)) {
+      leaves[n] = needs_sampling(effective_class(tree, g, n)) ? 1u : 0u;
+      return;
+    }
+    for (int k = 0; k < 8; ++k) {
+      const std::uint32_t c = tree.child(n, k);
+      if (tree.outside(c)) continue;
+      self(self, c);
+      leaves[n] += leaves[c];
+      boxes[n] += boxes[c];
+    }
+  };
+  count(count, tree.root());
+
+  OccupancyGeometry out;
+  out.depth_limit = g.depth_limit;
+  out.truncated = g.truncated;
+  out.tree_revision = g.tree_revision;
+  out.node_box.assign(slots, OccupancyGeometry::kNoBox);
+  auto emit = [&](std::uint32_t n, const OccupancyBox& b) {
+    out.node_box[n] = std::uint32_t(out.boxes.size());
+    out.boxes.push_back(b);
+  };
+  // Breadth first; `flat`: inside a subtree replaced by its leaves.
+  std::vector<std::pair<std::uint32_t, bool>> level{{tree.root(), false}}, next;
+  while (!level.empty()) {
+    next.clear();
+    for (auto [n, flat] : level) {
+      const bool leaf = effective_leaf(tree, g, n);
+      if (flat) {
+        const OccupancyClass c = effective_class(tree, g, n);
+        if (leaf && needs_sampling(c)) {
+          emit(n, OccupancyBox{tree.clipped_box(n), c, OccupancyClass::Empty, std::uint8_t(tree.node(n).depth), 0, n});
+        }
+      } else if (const std::uint32_t i = g.node_box[n]; i != OccupancyGeometry::kNoBox) {
+        const OccupancyBox& b = g.boxes[i];
+        flat = !leaf && needs_sampling(b.cls) && b.parent_cls == OccupancyClass::Empty && leaves[n] <= kMaxLeavesPerBox * boxes[n];
+        if (!flat) emit(n, b);
+      }
+      if (leaf) continue;
+      for (int k = 0; k < 8; ++k) {
+        const std::uint32_t c = tree.child(n, k);
+        if (!tree.outside(c)) next.emplace_back(c, flat);
+      }
+    }
+    std::swap(level, next);
+  }
+  return out;
+}
+
 namespace {
 
 // The bounds of the set cells of `mask` with cell coordinates in [c0, c1] (inclusive, per axis); false

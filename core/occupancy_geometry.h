@@ -45,6 +45,16 @@ OccupancyGeometry build_occupancy_geometry(const OccupancyTree& tree, std::size_
 OccupancyClass effective_class(const OccupancyTree& tree, const OccupancyGeometry& g, std::uint32_t node);
 bool effective_leaf(const OccupancyTree& tree, const OccupancyGeometry& g, std::uint32_t node);
 
+// `g` with each sampled box (NON_EMPTY or UNKNOWN) inside EMPTY replaced by the sampled leaves of
+// its subtree, one box each inside EMPTY, wherever they are at most four times the boxes of that
+// subtree (so never more than four times the boxes of `g`). The EMPTY boxes nested in it go: the leaves cover the
+// same sampled region (each with its own class), so rays take the same samples. What changes is the
+// lists' work: a ray meets leaves alone (an ENTRY and an EXIT each, appended as they come) instead
+// of a box and the EMPTY boxes cut out of it, whose faces coincide with its own and with each other's
+// and are merged event by event (Alg. 5's same-depth rules); and tighten_leaf_boxes can shrink the
+// leaves, where it cannot shrink an inner box. Boxes breadth first, as Alg. 2's.
+OccupancyGeometry flatten_sparse_subtrees(const OccupancyTree& tree, const OccupancyGeometry& g);
+
 struct VoxelMaskView;
 
 // `g` with each NON_EMPTY box of an (effective) leaf node shrunk to the trilinear cells of `mask` set

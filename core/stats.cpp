@@ -36,6 +36,8 @@ std::string stats_to_json(const Stats& s) {
   j["occupancy_misses"] = s.occupancy_misses;
   j["list_overflows"] = s.list_overflows;
   j["list_bytes"] = s.list_bytes;
+  j["list_tile_entries"] = s.list_tile_entries;
+  j["list_slab_tests"] = s.list_slab_tests;
   j["metadata_blocks"] = s.metadata_blocks;
   j["metadata_computed"] = s.metadata_computed;
   if (s.cache.present) j["metadata_bytes"] = s.metadata_bytes;

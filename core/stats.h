@@ -63,6 +63,8 @@ struct Stats {
   std::uint64_t occupancy_misses = 0;   // UNKNOWN segments sampled
   std::uint64_t list_overflows = 0;     // pixels whose list hit a fixed capacity (GL lists only)
   std::uint64_t list_bytes = 0;         // storage of the frame's segment lists (events, offsets, counts)
+  std::uint64_t list_tile_entries = 0;  // CPU list builder's work: visibility entries met per screen tile
+  std::uint64_t list_slab_tests = 0;    // and (box, pixel) slab tests (0 for other builders)
   std::uint64_t metadata_blocks = 0;    // blocks whose metadata exists
   std::uint64_t metadata_computed = 0;  // blocks whose metadata was computed this frame (in or out of core)
   std::uint64_t metadata_bytes = 0;     // memory of the block metadata held (out of core; bounded, LRU)

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
+#include <cstring>
 #include <deque>
 #include <vector>
 
@@ -126,6 +127,64 @@ RC_GTEST_PROP(OccupancyGeometryProperty, Alg2EmissionAndBudget, (std::uint64_t s
       if (leaf.box.contains(c)) RC_ASSERT(fine.cls == C::Empty);
     }
   }
+}
+
+// flatten_sparse_subtrees: every effective leaf keeps its class (the class of the innermost box around
+// it, as the lists read the nesting); a box is either the original box of its node or a sampled leaf
+// directly inside EMPTY, in a subtree whose root was a sampled box inside EMPTY; breadth first; never
+// more than four times the boxes; and nothing changes where no such subtree exists.
+RC_GTEST_PROP(OccupancyGeometryProperty, FlattenedSubtreesKeepEveryLeafsClass, (std::uint64_t seed)) {
+  const int levels = *rc::gen::inRange(2, 6);
+  // Mixed trees: inner nodes of any majority under parents of another, so subtrees to flatten occur.
+  const double p_split = 0.01 * *rc::gen::inRange(60, 90), p_base = 0.01 * *rc::gen::inRange(20, 60);
+  const OccupancyTree t = make_random_occupancy_tree(cube_grid(levels), seed, RandomTreeParams{levels, p_split, p_base});
+  const std::size_t budget = *rc::gen::element<std::size_t>(0, 0, 12, 40);
+  const OccupancyGeometry g = build_occupancy_geometry(t, budget);
+  const OccupancyGeometry f = flatten_sparse_subtrees(t, g);
+  RC_ASSERT(f.tree_revision == g.tree_revision && f.depth_limit == g.depth_limit && f.truncated == g.truncated);
+  RC_ASSERT(f.node_box.size() == g.node_box.size());
+  RC_ASSERT(f.boxes.size() <= 4 * g.boxes.size());
+  for (std::size_t i = 1; i < f.boxes.size(); ++i) RC_ASSERT(f.boxes[i].depth >= f.boxes[i - 1].depth);
+  // The innermost box on the path from the root to node n, in geometry x.
+  const auto innermost = [&](const OccupancyGeometry& x, std::uint32_t n) -> const OccupancyBox* {
+    for (std::uint32_t a = n; a != OccupancyTree::kNone; a = t.node(a).parent) {
+      if (x.node_box[a] != OccupancyGeometry::kNoBox) return &x.boxes[x.node_box[a]];
+    }
+    return nullptr;
+  };
+  std::size_t flattened = 0, leaves = 0;
+  for (std::uint32_t n = 0; n < f.node_box.size(); ++n) {
+    if (f.node_box[n] == OccupancyGeometry::kNoBox) continue;
+    const OccupancyBox& b = f.boxes[f.node_box[n]];
+    RC_ASSERT(b.node == n);
+    if (g.node_box[n] != OccupancyGeometry::kNoBox &&
+        std::memcmp(&b, &g.boxes[g.node_box[n]], sizeof(OccupancyBox)) == 0) {
+      continue;
+    }
+    // A leaf of a flattened subtree: sampled, directly inside EMPTY, under a sampled box of g inside EMPTY.
+    ++flattened;
+    RC_ASSERT(effective_leaf(t, g, n) && needs_sampling(b.cls) && b.cls == effective_class(t, g, n));
+    RC_ASSERT(b.parent_cls == C::Empty && b.depth == t.node(n).depth);
+    const Box3 clipped = t.clipped_box(n);
+    RC_ASSERT(std::memcmp(&b.box, &clipped, sizeof(Box3)) == 0);
+    bool under = false;
+    for (std::uint32_t a = t.node(n).parent; a != OccupancyTree::kNone && !under; a = t.node(a).parent) {
+      const std::uint32_t i = g.node_box[a];
+      under = i != OccupancyGeometry::kNoBox && needs_sampling(g.boxes[i].cls) && g.boxes[i].parent_cls == C::Empty &&
+              f.node_box[a] == OccupancyGeometry::kNoBox;
+    }
+    RC_ASSERT(under);
+  }
+  for (const OccupancyBox& leaf : leaf_boxes(t, g.depth_limit)) {
+    ++leaves;
+    const OccupancyBox* bf = innermost(f, leaf.node);
+    const OccupancyBox* bg = innermost(g, leaf.node);
+    RC_ASSERT(bg != nullptr && bg->cls == leaf.cls);  // Alg. 2's nesting
+    RC_ASSERT(bf != nullptr && bf->cls == leaf.cls);
+  }
+  if (flattened == 0) RC_ASSERT(f.boxes.size() == g.boxes.size());
+  RC_TAG(flattened > 0 ? "flattened" : "unchanged");
+  RC_ASSERT(leaves > 0u);
 }
 
 }  // namespace
