@@ -17,36 +17,50 @@
 namespace sl {
 
 ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen) {
-  const glm::dvec3 eye(gen.eye), fwd(gen.forward), right(gen.right), up(gen.up);
-  double zmin = HUGE_VAL, zmax = -HUGE_VAL, xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
-  double dmax = 0.0;
-  glm::dvec3 v[8];
-  for (int k = 0; k < 8; ++k) {
-    const glm::dvec3 c((k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y, (k & 4) ? box.hi.z : box.lo.z);
-    v[k] = c - eye;
-    const double z = glm::dot(v[k], fwd);
-    zmin = std::min(zmin, z);
-    zmax = std::max(zmax, z);
-    dmax = std::max(dmax, glm::length(v[k]));
+  // A corner relative to the eye takes, per axis, the box's low or high side: its component along a
+  // camera axis is the sum of three per-axis products, each made once for both sides.
+  const double eye[3] = {gen.eye.x, gen.eye.y, gen.eye.z};
+  const double fw[3] = {gen.forward.x, gen.forward.y, gen.forward.z}, rt[3] = {gen.right.x, gen.right.y, gen.right.z},
+               up[3] = {gen.up.x, gen.up.y, gen.up.z};
+  double cz[3][2], cx[3][2], cy[3][2];  // [axis][low, high side]
+  double zmin = 0.0, zmax = 0.0, d2max = 0.0;
+  for (int a = 0; a < 3; ++a) {
+    const double d[2] = {double(box.lo[a]) - eye[a], double(box.hi[a]) - eye[a]};
+    for (int h = 0; h < 2; ++h) {
+      cz[a][h] = d[h] * fw[a];
+      cx[a][h] = d[h] * rt[a];
+      cy[a][h] = d[h] * up[a];
+    }
+    zmin += std::min(cz[a][0], cz[a][1]);  // the corners' extremes are sums of the axes' extremes
+    zmax += std::max(cz[a][0], cz[a][1]);
+    d2max += std::max(d[0] * d[0], d[1] * d[1]);
   }
   // Rays move forward (perspective: every direction has a positive forward component; orthographic:
   // origins on the eye plane), so a box wholly behind the eye plane is met only at t <= 0. The
   // tolerance keeps boxes touching the plane, where float slab tests may still report t1 > 0.
-  const double tol = 1e-5 * dmax + 1e-30;
+  const double tol = 1e-5 * std::sqrt(d2max) + 1e-30;
   if (zmax < -tol) return ScreenRect{};
   const ScreenRect full{0, 0, gen.width - 1, gen.height - 1};
   if (!gen.orthographic && zmin <= tol) return full;  // holds the eye or straddles the eye plane
-  for (int k = 0; k < 8; ++k) {
-    double x = glm::dot(v[k], right), y = glm::dot(v[k], up);
-    if (!gen.orthographic) {
-      const double z = glm::dot(v[k], fwd);
-      x /= z;
-      y /= z;
+  double xmin = HUGE_VAL, xmax = -HUGE_VAL, ymin = HUGE_VAL, ymax = -HUGE_VAL;
+  if (gen.orthographic) {
+    xmin = ymin = xmax = ymax = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      xmin += std::min(cx[a][0], cx[a][1]);
+      xmax += std::max(cx[a][0], cx[a][1]);
+      ymin += std::min(cy[a][0], cy[a][1]);
+      ymax += std::max(cy[a][0], cy[a][1]);
     }
-    xmin = std::min(xmin, x);
-    xmax = std::max(xmax, x);
-    ymin = std::min(ymin, y);
-    ymax = std::max(ymax, y);
+  } else {
+    for (int k = 0; k < 8; ++k) {
+      const int hx = k & 1, hy = (k >> 1) & 1, hz = (k >> 2) & 1;
+      const double iz = 1.0 / ((cz[0][hx] + cz[1][hy]) + cz[2][hz]);
+      const double x = ((cx[0][hx] + cx[1][hy]) + cx[2][hz]) * iz, y = ((cy[0][hx] + cy[1][hy]) + cy[2][hz]) * iz;
+      xmin = std::min(xmin, x);
+      xmax = std::max(xmax, x);
+      ymin = std::min(ymin, y);
+      ymax = std::max(ymax, y);
+    }
   }
   // Inverse of RayGenerator::ray: screen coordinate -> continuous pixel index of the pixel centre.
   const double half_h = gen.half_h, half_w = double(gen.half_h) * double(gen.aspect);

@@ -437,13 +437,13 @@ struct TileJob {
   SegmentListBuffer& out;
 };
 
-// The tile's lists in its scratch (Alg. 4-5 per entry and covered pixel). False when a list
-// overflowed the scratch's capacity. A box's pixels in a tile row are its 4-lane groups [j0, j1],
+// The tile's lists in its scratch (Alg. 4-5 per entry and covered pixel); a list that outgrew the
+// scratch's capacity has kListOverflow in its count word. A box's pixels in a tile row are its 4-lane groups [j0, j1],
 // the first and last masked to [x0, x1] (the masks made once per entry). Perspective rays share
 // their origin, so the Fast path takes each box's corners relative to it once per entry
 // (slab_lanes_shared: the same subtraction, so the same bits).
 template <ListBuildPath kPath>
-bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
+void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
                     TileScratch& s, std::uint64_t& tests) {
   const std::uint32_t cap = s.capacity;
   RayEvent* const ev = s.events.data();
@@ -522,10 +522,6 @@ bool rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
       }
     }
   }
-  for (int k = 0; k < kTilePixels; ++k) {
-    if (s.count[k] & kListOverflow) return false;
-  }
-  return true;
 }
 
 template <ListBuildPath kPath>
@@ -535,17 +531,23 @@ void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<st
   detail::tile_rays(job.gen, tile, s.origin, s.inv_dir);
   if (s.exits.size() < std::size_t(job.depth) * kTilePixels) s.exits.resize(std::size_t(job.depth) * kTilePixels);
   std::uint64_t tests = 0;
+  std::size_t total = 0;  // the tile's events
   for (;;) {
     if (s.events.size() < std::size_t(s.capacity) * kTilePixels) s.events.resize(std::size_t(s.capacity) * kTilePixels);
     tests = 0;
-    if (rasterize_tile<kPath>(job, tile, entries, s, tests)) break;
+    rasterize_tile<kPath>(job, tile, entries, s, tests);
+    std::uint32_t words = 0;
+    total = 0;
+    for (int k = 0; k < kTilePixels; ++k) {
+      words |= s.count[k];
+      total += s.count[k];
+    }
+    if (!(words & kListOverflow)) break;
     SL_CHECK(s.capacity < (1u << 30));
     s.capacity *= 2;  // a list outgrew the scratch: the tile again, with room for it (and kept so)
   }
   st.slab_tests += tests;
   // Straight into the buffer: the tile's lists back to back, pixel by pixel.
-  std::size_t total = 0;
-  for (int k = 0; k < kTilePixels; ++k) total += s.count[k];
   if (total == 0) return;
   std::uint32_t at = 0;
   RayEvent* const dst = job.arena.reserve(total, at);
