@@ -55,6 +55,9 @@ class EventArena {
     const std::size_t first = used_.fetch_add(n, std::memory_order_relaxed);
     at = std::uint32_t(first);
     if (first + n <= out_.events.size()) return out_.events.data() + first;
+    // Nothing to write (a row without events): no spilled range, whose `at` would tie with the range
+    // that does hold events there and could sort after it in finish().
+    if (n == 0) return out_.events.data() + out_.events.size();
     Spill& s = spilled_.local();
     if (s.chunks.empty() || s.used + n > s.chunk_size) {
       s.chunk_size = std::max(n, kChunkEvents);
