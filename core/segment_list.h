@@ -228,6 +228,16 @@ struct SegmentListBuffer {
     offsets.assign(std::size_t(w) * std::size_t(h), 0u);
     counts.assign(std::size_t(w) * std::size_t(h), 0u);
   }
+  // Sizes the per-pixel arrays for w x h pixels, their contents left as they are: for a builder that
+  // writes every pixel's offset and count word itself (no pass to empty them first).
+  void reshape(int w, int h) {
+    SL_CHECK(w >= 0 && h >= 0);
+    width = w;
+    height = h;
+    event_count = 0;
+    offsets.resize(std::size_t(w) * std::size_t(h));
+    counts.resize(std::size_t(w) * std::size_t(h));
+  }
   // A copy of `v`'s lists (as a device receives them).
   void assign(const SegmentListView& v) {
     const std::size_t pixels = std::size_t(v.width) * std::size_t(v.height);

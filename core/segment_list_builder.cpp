@@ -6,6 +6,8 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <cstring>
+#include <type_traits>
 #include <vector>
 
 #if defined(__SSE2__) && !defined(SL_NO_SSE)
@@ -164,10 +166,11 @@ namespace {
 
 constexpr int T = kTileSize;
 constexpr int kTilePixels = T * T;
+static_assert(kTilePixels % 64 == 0 && T % 4 == 0, "a tile's hits fill 64-bit words; no group of four straddles two");
 
-// Runs fn(tile_rect, entries, stats) for every screen tile with entries, in parallel over rows of
-// tiles: each row first bins, in the given order, the items whose rectangle overlaps it. `rect_of(i)`
-// is item i's rectangle. Returns the stats fn added up, with box_tile_pairs.
+// Runs fn(tile_rect, entries, stats) for every screen tile, in parallel over rows of tiles: each row
+// first bins, in the given order, the items whose rectangle overlaps it (a tile may have none).
+// `rect_of(i)` is item i's rectangle. Returns the stats fn added up, with box_tile_pairs.
 template <class RectOf, class Fn>
 SegmentListStats for_each_tile(const RayGenerator& gen, std::size_t items, RectOf&& rect_of, Fn&& fn) {
   const int tiles_x = (gen.width + T - 1) / T;
@@ -202,7 +205,6 @@ SegmentListStats for_each_tile(const RayGenerator& gen, std::size_t items, RectO
             for (int tx = r.x0 / T; tx <= r.x1 / T; ++tx) bins[tx].push_back(i);
           }
           for (int tx = 0; tx < tiles_x; ++tx) {
-            if (bins[tx].empty()) continue;  // the buffer's lists start empty
             const ScreenRect tile{tx * T, y0, std::min(tx * T + T, gen.width) - 1, y1};
             st.box_tile_pairs += bins[tx].size();
             fn(tile, bins[tx], st);
@@ -287,10 +289,23 @@ SL_INLINE void append_leaf(RayEvent* list, std::uint32_t& count, float& t_seen, 
   append_event(list, count, t_seen, cap, t_out, EventType::Exit, parent_cls, eps);
 }
 
+// dst[0, n) = src[0, n), n >= 1: a list is a few events, too short for a call to memcpy to pay.
+SL_INLINE void copy_events(RayEvent* dst, const RayEvent* src, std::uint32_t n) {
+  static_assert(sizeof(RayEvent) == 8 && std::is_trivially_copyable_v<RayEvent>);
+  std::uint32_t i = 0;
+#if SL_SSE_SLAB
+  for (; i + 2u <= n; i += 2u) {
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(dst + i), _mm_loadu_si128(reinterpret_cast<const __m128i*>(src + i)));
+  }
+#endif
+  for (; i < n; ++i) std::memcpy(dst + i, src + i, sizeof(RayEvent));
+}
+
 // A tile's working set, one per thread and kept between frames. Pixel k = ly * T + lx of the tile.
 struct TileScratch {
   alignas(16) float origin[3][kTilePixels];
   alignas(16) float inv_dir[3][kTilePixels];
+  alignas(16) float t0[kTilePixels], t1[kTilePixels];  // an entry's slab intervals
   std::vector<float> exits;  // [level][pixel]: exit t of the open box at that level, 0 where it missed
   std::uint32_t capacity = 32;
   std::vector<RayEvent> events;  // [pixel][capacity]
@@ -326,7 +341,8 @@ void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
   const float* const inv[3] = {s.inv_dir[0], s.inv_dir[1], s.inv_dir[2]};
   const bool shared_origin = kPath == ListBuildPath::Fast && !job.gen.orthographic;
   const float eps = job.eps;
-  alignas(16) float t0[4] = {}, t1[4] = {};
+  float* const t0 = s.t0;  // the slab intervals of the entry's pixels
+  float* const t1 = s.t1;
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const std::uint32_t e = entries[i];
     const VisibilityEntry& v = job.order[e];
@@ -353,24 +369,31 @@ void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
         lo_o[a] = box.lo[a] - o[a][0];
         hi_o[a] = box.hi[a] - o[a][0];
       }
+      // The slab tests of all the box's groups in the tile first, their hits gathered into one mask
+      // (bit k: pixel k), then the hit pixels' events: one loop over the hits of four rows, not one
+      // per group of four pixels.
       auto front = [&]<bool kLeaf, bool kShared>() {
+        std::uint64_t hits[kTilePixels / 64] = {};
         for (int y = y0; y <= y1; ++y) {
           for (int j = j0; j <= j1; ++j) {
             const int k0 = y * T + 4 * j;
-            const unsigned hit = (kShared ? slab_lanes_shared<kPath>(inv, std::size_t(k0), lo_o, hi_o, t0, t1)
-                                          : slab_lanes<kPath>(o, inv, std::size_t(k0), box, t0, t1)) &
-                                 masks[j];
-            if constexpr (!kLeaf) store_lanes<kPath>(exit + k0, t1, hit);  // the BACK entry's EXIT t (0: missed)
-            for (unsigned m = hit; m != 0u; m &= m - 1u) {
-              const int l = std::countr_zero(m);
-              const int k = k0 + l;
-              RayEvent* const list = ev + std::size_t(k) * cap;
-              const float t_in = t0[l] > 0.0f ? t0[l] : 0.0f;
-              if constexpr (kLeaf) {
-                append_leaf(list, s.count[k], s.t_seen[k], cap, t_in, t1[l], cls, parent_cls, eps);
-              } else {
-                append_event(list, s.count[k], s.t_seen[k], cap, t_in, EventType::Entry, cls, eps);
-              }
+            const unsigned hit =
+                (kShared ? slab_lanes_shared<kPath>(inv, std::size_t(k0), lo_o, hi_o, t0 + k0, t1 + k0)
+                         : slab_lanes<kPath>(o, inv, std::size_t(k0), box, t0 + k0, t1 + k0)) &
+                masks[j];
+            if constexpr (!kLeaf) store_lanes<kPath>(exit + k0, t1 + k0, hit);  // the BACK entry's EXIT t (0: missed)
+            hits[k0 >> 6] |= std::uint64_t(hit) << (k0 & 63);
+          }
+        }
+        for (int w = (y0 * T) >> 6; w <= (y1 * T + T - 1) >> 6; ++w) {
+          for (std::uint64_t m = hits[w]; m != 0u; m &= m - 1u) {
+            const int k = 64 * w + std::countr_zero(m);
+            RayEvent* const list = ev + std::size_t(k) * cap;
+            const float t_in = t0[k] > 0.0f ? t0[k] : 0.0f;
+            if constexpr (kLeaf) {
+              append_leaf(list, s.count[k], s.t_seen[k], cap, t_in, t1[k], cls, parent_cls, eps);
+            } else {
+              append_event(list, s.count[k], s.t_seen[k], cap, t_in, EventType::Entry, cls, eps);
             }
           }
         }
@@ -382,15 +405,19 @@ void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
       }
       i += leaf ? 1u : 0u;
     } else {
-      // Alg. 4's EXIT at the back face: the t1 of the slab test the FRONT entry of this box ran.
+      // Alg. 4's EXIT at the back face: the t1 of the slab test the FRONT entry of this box ran
+      // (gathered into one mask as there).
+      std::uint64_t hits[kTilePixels / 64] = {};
       for (int y = y0; y <= y1; ++y) {
         for (int j = j0; j <= j1; ++j) {
           const int k0 = y * T + 4 * j;
-          for (unsigned m = masks[j] & positive_lanes<kPath>(exit + k0); m != 0u; m &= m - 1u) {
-            const int k = k0 + std::countr_zero(m);
-            append_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit, parent_cls,
-                      eps);
-          }
+          hits[k0 >> 6] |= std::uint64_t(masks[j] & positive_lanes<kPath>(exit + k0)) << (k0 & 63);
+        }
+      }
+      for (int w = (y0 * T) >> 6; w <= (y1 * T + T - 1) >> 6; ++w) {
+        for (std::uint64_t m = hits[w]; m != 0u; m &= m - 1u) {
+          const int k = 64 * w + std::countr_zero(m);
+          append_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit, parent_cls, eps);
         }
       }
     }
@@ -400,6 +427,15 @@ void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
 template <ListBuildPath kPath>
 void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
                 SegmentListStats& st) {
+  SegmentListBuffer& out = job.out;
+  const int w = tile.x1 - tile.x0 + 1;
+  if (entries.empty()) {  // every pixel's list is written here, the empty ones too
+    for (int y = tile.y0; y <= tile.y1; ++y) {
+      std::fill_n(out.offsets.data() + out.pixel(tile.x0, y), w, 0u);
+      std::fill_n(out.counts.data() + out.pixel(tile.x0, y), w, 0u);
+    }
+    return;
+  }
   thread_local TileScratch s;
   detail::tile_rays(job.gen, tile, s.origin, s.inv_dir);
   if (s.exits.size() < std::size_t(job.depth) * kTilePixels) s.exits.resize(std::size_t(job.depth) * kTilePixels);
@@ -420,31 +456,40 @@ void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<st
     s.capacity *= 2;  // a list outgrew the scratch: the tile again, with room for it (and kept so)
   }
   st.slab_tests += tests;
-  // Straight into the buffer: the tile's lists back to back, pixel by pixel.
-  if (total == 0) return;
+  // Straight into the buffer: the tile's lists back to back, pixel by pixel; an empty list gets
+  // offset 0 and count 0. The counts to the stats per tile: events, lists, the longest, and the
+  // segments (a list's events, but for a closing INVALID one).
   std::uint32_t at = 0;
-  RayEvent* const dst = job.arena.reserve(total, at);
-  std::uint32_t run = 0;
+  RayEvent* const dst = total > 0 ? job.arena.reserve(total, at) : nullptr;
+  std::uint32_t run = 0, lists = 0, closed = 0, longest = 0;
   for (int y = tile.y0; y <= tile.y1; ++y) {
-    for (int x = tile.x0; x <= tile.x1; ++x) {
-      const int k = (y - tile.y0) * T + (x - tile.x0);
-      const std::uint32_t c = s.count[k];
+    std::uint32_t* const offsets = out.offsets.data() + out.pixel(tile.x0, y);
+    std::uint32_t* const counts = out.counts.data() + out.pixel(tile.x0, y);
+    const int k0 = (y - tile.y0) * T;
+    for (int x = 0; x < w; ++x) {
+      const std::uint32_t c = s.count[k0 + x];
+      counts[x] = c;
+      offsets[x] = c != 0u ? at + run : 0u;
       if (c == 0u) continue;
-      const std::size_t p = job.out.pixel(x, y);
-      std::copy_n(s.events.data() + std::size_t(k) * s.capacity, c, dst + run);
-      job.out.offsets[p] = at + run;
-      job.out.counts[p] = c;
-      count_list(st, dst + run, c);
+      const RayEvent* const src = s.events.data() + std::size_t(k0 + x) * s.capacity;
+      copy_events(dst + run, src, c);
       run += c;
+      ++lists;
+      closed += src[c - 1].cls == std::uint8_t(OccupancyClass::Invalid) ? 1u : 0u;
+      longest = std::max(longest, c);
     }
   }
+  st.lists += lists;
+  st.events += total;
+  st.segments += total - closed;
+  st.max_events = std::max(st.max_events, longest);
 }
 
 }  // namespace
 
 SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
                                      const RayGenerator& gen, SegmentListBuffer& out, float eps, ListBuildPath path) {
-  out.reset(gen.width, gen.height);
+  out.reshape(gen.width, gen.height);  // build_tile writes every pixel
   const std::vector<ScreenRect> rects = box_rects(geometry.boxes, gen);
   std::uint32_t depth = 0;
   const std::vector<std::uint32_t> level = nesting_levels(order, depth);
@@ -512,6 +557,7 @@ SegmentListStats build_bbox_lists(std::span<const OccupancyBox> all_boxes, const
   const SegmentListStats st = for_each_tile(
       gen, boxes.size(), [&](std::size_t i) -> const ScreenRect& { return rects[i]; },
       [&](const ScreenRect& tile, const std::vector<std::uint32_t>& items, SegmentListStats& s) {
+        if (items.empty()) return;  // the buffer's lists start empty
         thread_local ListBlock block;
         block.clear();
         for (int y = tile.y0; y <= tile.y1; ++y) {

@@ -191,6 +191,31 @@ TEST(SegmentListBuilder, StorageIsCompactAndReusedAcrossFrames) {
   }
 }
 
+// The tile builder writes every pixel's offset and count word, the empty lists' too, instead of
+// emptying the buffer first: whatever a reused buffer held (here garbage, and a view in which most
+// tiles see no box) must not show through.
+TEST(SegmentListBuilder, EveryPixelIsWrittenWhateverTheBufferHeld) {
+  const Fixture f = rich_fixture(17, ivec3(64), vec3(1.0f));
+  const RayGenerator gen = make_ray_generator(perspective(vec3(220.0f, 180.0f, 250.0f), vec3(32.0f), 20.0f), 70, 50);
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  SegmentListBuffer b, fresh;
+  b.reset(70, 50);
+  std::fill(b.counts.begin(), b.counts.end(), 0x7FFFFFFFu);
+  std::fill(b.offsets.begin(), b.offsets.end(), 0xDEADBEEFu);
+  build_segment_lists(f.geometry, order, gen, b);
+  build_segment_lists_reference(f.geometry, order, gen, fresh);
+  expect_same_lists(b, fresh);
+  std::size_t empty = 0;
+  for (std::size_t i = 0; i < b.counts.size(); ++i) {
+    if (b.counts[i] == 0u) {
+      ++empty;
+      EXPECT_EQ(b.offsets[i], 0u);
+    }
+  }
+  EXPECT_GT(empty, b.counts.size() / 4) << "a view with empty tiles and empty pixels in tiles with boxes";
+  EXPECT_LT(empty, b.counts.size());
+}
+
 TEST(SegmentListBuilder, FixedCapacityListsAreCompacted) {  // the GL builder's read back
   const Fixture f = rich_fixture(17, ivec3(64), vec3(1.0f));
   const RayGenerator gen = make_ray_generator(perspective(vec3(90.0f, 70.0f, 110.0f), vec3(32.0f)), 37, 29);
