@@ -290,8 +290,15 @@ SL_INLINE void append_leaf(RayEvent* list, std::uint32_t& count, float& t_seen, 
 }
 
 // dst[0, n) = src[0, n), n >= 1: a list is a few events, too short for a call to memcpy to pay.
-SL_INLINE void copy_events(RayEvent* dst, const RayEvent* src, std::uint32_t n) {
+// `room`: the events dst can take (n at least). With room for eight, eight are copied whatever n (the
+// ones past n are overwritten by the next list, or lie past the events): one fixed-size copy, no
+// loop whose length is as good as random.
+SL_INLINE void copy_events(RayEvent* dst, const RayEvent* src, std::uint32_t n, std::size_t room) {
   static_assert(sizeof(RayEvent) == 8 && std::is_trivially_copyable_v<RayEvent>);
+  if (n <= 8u && room >= 8u) {
+    std::memcpy(dst, src, 8 * sizeof(RayEvent));
+    return;
+  }
   std::uint32_t i = 0;
 #if SL_SSE_SLAB
   for (; i + 2u <= n; i += 2u) {
@@ -313,12 +320,38 @@ struct TileScratch {
   float t_seen[kTilePixels];
 };
 
+// An entry of the visibility order with all the tile loop reads of it, gathered once per frame in
+// that order. A tile visits its entries in order, so it reads this array forward, where the boxes and
+// their rectangles, indexed by box, were read at random (a cache miss an entry once the frame's
+// working set outgrew the caches).
+struct EntryRec {
+  Box3 box;
+  ScreenRect rect;
+  std::uint32_t level;  // nesting level (nesting_levels)
+  OccupancyClass cls, parent_cls;
+  bool front;  // a FRONT entry, else a BACK one
+  bool leaf;   // a FRONT entry whose box's BACK entry comes next (a leaf's, Alg. 3)
+};
+static_assert(sizeof(EntryRec) == 48, "EntryRec layout");
+
+std::vector<EntryRec> entry_records(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
+                                    const std::vector<ScreenRect>& rects, std::uint32_t& depth) {
+  const std::vector<std::uint32_t> level = nesting_levels(order, depth);
+  std::vector<EntryRec> rec(order.size());
+  parallel_for(std::size_t(0), order.size(), [&](std::size_t lo, std::size_t hi) {
+    for (std::size_t e = lo; e != hi; ++e) {
+      const VisibilityEntry& v = order[e];
+      const OccupancyBox& b = geometry.boxes[v.box];
+      const bool leaf = v.face == Face::Front && e + 1 < order.size() && order[e + 1].box == v.box;
+      rec[e] = EntryRec{b.box, rects[v.box], level[e], b.cls, b.parent_cls, v.face == Face::Front, leaf};
+    }
+  });
+  return rec;
+}
+
 struct TileJob {
-  const OccupancyGeometry& geometry;
-  std::span<const VisibilityEntry> order;
+  std::span<const EntryRec> entries;
   const RayGenerator& gen;
-  const std::vector<ScreenRect>& rects;
-  const std::vector<std::uint32_t>& level;
   std::uint32_t depth;
   float eps;
   EventArena& arena;
@@ -345,11 +378,10 @@ void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
   float* const t1 = s.t1;
   for (std::size_t i = 0; i < entries.size(); ++i) {
     const std::uint32_t e = entries[i];
-    const VisibilityEntry& v = job.order[e];
-    const OccupancyBox& b = job.geometry.boxes[v.box];
-    const Box3 box = b.box;  // a copy the stores below cannot alias
-    const OccupancyClass cls = b.cls, parent_cls = b.parent_cls;
-    const ScreenRect& r = job.rects[v.box];
+    const EntryRec& v = job.entries[e];
+    const Box3 box = v.box;  // a copy the stores below cannot alias
+    const OccupancyClass cls = v.cls, parent_cls = v.parent_cls;
+    const ScreenRect r = v.rect;
     const int x0 = std::max(r.x0, tile.x0) - tile.x0, x1 = std::min(r.x1, tile.x1) - tile.x0;
     const int y0 = std::max(r.y0, tile.y0) - tile.y0, y1 = std::min(r.y1, tile.y1) - tile.y0;
     const int j0 = x0 >> 2, j1 = x1 >> 2;
@@ -357,13 +389,13 @@ void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vecto
     for (int j = j0; j <= j1; ++j) masks[j] = 0xFu;
     masks[j0] &= (0xFu << (x0 & 3)) & 0xFu;
     masks[j1] &= 0xFu >> (3 - (x1 & 3));
-    const std::uint32_t level = job.level[e];
+    const std::uint32_t level = v.level;
     float* const exit = s.exits.data() + std::size_t(level) * kTilePixels;
-    if (v.face == Face::Front) {
+    if (v.front) {
       tests += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
       // A leaf's BACK entry follows its FRONT entry (Alg. 3): both events at once, per pixel in the
       // same order, and no exit to keep.
-      const bool leaf = i + 1 < entries.size() && entries[i + 1] == e + 1u && job.order[e + 1].box == v.box;
+      const bool leaf = v.leaf && i + 1 < entries.size() && entries[i + 1] == e + 1u;
       float lo_o[3], hi_o[3];  // the box relative to the shared origin
       for (int a = 0; a < 3; ++a) {
         lo_o[a] = box.lo[a] - o[a][0];
@@ -472,7 +504,7 @@ void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<st
       offsets[x] = c != 0u ? at + run : 0u;
       if (c == 0u) continue;
       const RayEvent* const src = s.events.data() + std::size_t(k0 + x) * s.capacity;
-      copy_events(dst + run, src, c);
+      copy_events(dst + run, src, c, total - run);  // the scratch holds capacity >= 8 events a pixel
       run += c;
       ++lists;
       closed += src[c - 1].cls == std::uint8_t(OccupancyClass::Invalid) ? 1u : 0u;
@@ -490,13 +522,12 @@ void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<st
 SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
                                      const RayGenerator& gen, SegmentListBuffer& out, float eps, ListBuildPath path) {
   out.reshape(gen.width, gen.height);  // build_tile writes every pixel
-  const std::vector<ScreenRect> rects = box_rects(geometry.boxes, gen);
   std::uint32_t depth = 0;
-  const std::vector<std::uint32_t> level = nesting_levels(order, depth);
+  const std::vector<EntryRec> entries = entry_records(geometry, order, box_rects(geometry.boxes, gen), depth);
   EventArena arena(out);
-  const TileJob job{geometry, order, gen, rects, level, depth, eps, arena, out};
+  const TileJob job{entries, gen, depth, eps, arena, out};
   const SegmentListStats st = for_each_tile(
-      gen, order.size(), [&](std::size_t i) -> const ScreenRect& { return rects[order[i].box]; },
+      gen, entries.size(), [&](std::size_t i) -> const ScreenRect& { return entries[i].rect; },
       [&](const ScreenRect& tile, const std::vector<std::uint32_t>& entries, SegmentListStats& s) {
         if (path == ListBuildPath::Fast) {
           build_tile<ListBuildPath::Fast>(job, tile, entries, s);
