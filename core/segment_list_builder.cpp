@@ -16,6 +16,12 @@
 #else
 #define SL_SSE_SLAB 0
 #endif
+#if SL_SSE_SLAB && defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#define SL_AVX2_SLAB 1
+#else
+#define SL_AVX2_SLAB 0
+#endif
 
 namespace sl {
 
@@ -358,105 +364,153 @@ struct TileJob {
   SegmentListBuffer& out;
 };
 
-// The tile's lists in its scratch (Alg. 4-5 per entry and covered pixel); a list that outgrew the
-// scratch's capacity has kListOverflow in its count word. A box's pixels in a tile row are its 4-lane
-// groups [j0, j1], the first and last masked to [x0, x1] (the masks made once per entry). Perspective
-// rays share their origin, so the Fast path takes each box's corners relative to it once per entry
-// (slab_lanes_shared: the same subtraction, so the same bits).
+namespace lanes4 {  // SSE2, or the scalar twin
+
+constexpr int kLanes = 4;
 template <ListBuildPath kPath>
-void rasterize_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
-                    TileScratch& s, std::uint64_t& tests) {
-  const std::uint32_t cap = s.capacity;
-  RayEvent* const ev = s.events.data();
-  std::fill_n(s.count, kTilePixels, 0u);
-  std::fill_n(s.t_seen, kTilePixels, kNoEventYet);
-  const float* const o[3] = {s.origin[0], s.origin[1], s.origin[2]};
-  const float* const inv[3] = {s.inv_dir[0], s.inv_dir[1], s.inv_dir[2]};
-  const bool shared_origin = kPath == ListBuildPath::Fast && !job.gen.orthographic;
-  const float eps = job.eps;
-  float* const t0 = s.t0;  // the slab intervals of the entry's pixels
-  float* const t1 = s.t1;
-  for (std::size_t i = 0; i < entries.size(); ++i) {
-    const std::uint32_t e = entries[i];
-    const EntryRec& v = job.entries[e];
-    const Box3 box = v.box;  // a copy the stores below cannot alias
-    const OccupancyClass cls = v.cls, parent_cls = v.parent_cls;
-    const ScreenRect r = v.rect;
-    const int x0 = std::max(r.x0, tile.x0) - tile.x0, x1 = std::min(r.x1, tile.x1) - tile.x0;
-    const int y0 = std::max(r.y0, tile.y0) - tile.y0, y1 = std::min(r.y1, tile.y1) - tile.y0;
-    const int j0 = x0 >> 2, j1 = x1 >> 2;
-    unsigned masks[T / 4] = {};
-    for (int j = j0; j <= j1; ++j) masks[j] = 0xFu;
-    masks[j0] &= (0xFu << (x0 & 3)) & 0xFu;
-    masks[j1] &= 0xFu >> (3 - (x1 & 3));
-    const std::uint32_t level = v.level;
-    float* const exit = s.exits.data() + std::size_t(level) * kTilePixels;
-    if (v.front) {
-      tests += std::uint64_t(x1 - x0 + 1) * std::uint64_t(y1 - y0 + 1);
-      // A leaf's BACK entry follows its FRONT entry (Alg. 3): both events at once, per pixel in the
-      // same order, and no exit to keep.
-      const bool leaf = v.leaf && i + 1 < entries.size() && entries[i + 1] == e + 1u;
-      float lo_o[3], hi_o[3];  // the box relative to the shared origin
-      for (int a = 0; a < 3; ++a) {
-        lo_o[a] = box.lo[a] - o[a][0];
-        hi_o[a] = box.hi[a] - o[a][0];
-      }
-      // The slab tests of all the box's groups in the tile first, their hits gathered into one mask
-      // (bit k: pixel k), then the hit pixels' events: one loop over the hits of four rows, not one
-      // per group of four pixels.
-      auto front = [&]<bool kLeaf, bool kShared>() {
-        std::uint64_t hits[kTilePixels / 64] = {};
-        for (int y = y0; y <= y1; ++y) {
-          for (int j = j0; j <= j1; ++j) {
-            const int k0 = y * T + 4 * j;
-            const unsigned hit =
-                (kShared ? slab_lanes_shared<kPath>(inv, std::size_t(k0), lo_o, hi_o, t0 + k0, t1 + k0)
-                         : slab_lanes<kPath>(o, inv, std::size_t(k0), box, t0 + k0, t1 + k0)) &
-                masks[j];
-            if constexpr (!kLeaf) store_lanes<kPath>(exit + k0, t1 + k0, hit);  // the BACK entry's EXIT t (0: missed)
-            hits[k0 >> 6] |= std::uint64_t(hit) << (k0 & 63);
-          }
-        }
-        for (int w = (y0 * T) >> 6; w <= (y1 * T + T - 1) >> 6; ++w) {
-          for (std::uint64_t m = hits[w]; m != 0u; m &= m - 1u) {
-            const int k = 64 * w + std::countr_zero(m);
-            RayEvent* const list = ev + std::size_t(k) * cap;
-            const float t_in = t0[k] > 0.0f ? t0[k] : 0.0f;
-            if constexpr (kLeaf) {
-              append_leaf(list, s.count[k], s.t_seen[k], cap, t_in, t1[k], cls, parent_cls, eps);
-            } else {
-              append_event(list, s.count[k], s.t_seen[k], cap, t_in, EventType::Entry, cls, eps);
-            }
-          }
-        }
-      };
-      if (leaf) {
-        shared_origin ? front.template operator()<true, true>() : front.template operator()<true, false>();
-      } else {
-        shared_origin ? front.template operator()<false, true>() : front.template operator()<false, false>();
-      }
-      i += leaf ? 1u : 0u;
-    } else {
-      // Alg. 4's EXIT at the back face: the t1 of the slab test the FRONT entry of this box ran
-      // (gathered into one mask as there).
-      std::uint64_t hits[kTilePixels / 64] = {};
-      for (int y = y0; y <= y1; ++y) {
-        for (int j = j0; j <= j1; ++j) {
-          const int k0 = y * T + 4 * j;
-          hits[k0 >> 6] |= std::uint64_t(masks[j] & positive_lanes<kPath>(exit + k0)) << (k0 & 63);
-        }
-      }
-      for (int w = (y0 * T) >> 6; w <= (y1 * T + T - 1) >> 6; ++w) {
-        for (std::uint64_t m = hits[w]; m != 0u; m &= m - 1u) {
-          const int k = 64 * w + std::countr_zero(m);
-          append_event(ev + std::size_t(k) * cap, s.count[k], s.t_seen[k], cap, exit[k], EventType::Exit, parent_cls, eps);
-        }
-      }
-    }
-  }
+SL_INLINE unsigned lanes_slab(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b,
+                              float* t0, float* t1) {
+  return slab_lanes<kPath>(o, inv, i, b, t0, t1);
+}
+template <ListBuildPath kPath>
+SL_INLINE unsigned lanes_slab_shared(const float* const inv[3], std::size_t i, const float lo_o[3],
+                                     const float hi_o[3], float* t0, float* t1) {
+  return slab_lanes_shared<kPath>(inv, i, lo_o, hi_o, t0, t1);
+}
+template <ListBuildPath kPath>
+SL_INLINE void lanes_store(float* dst, const float* t, unsigned lanes) {
+  store_lanes<kPath>(dst, t, lanes);
+}
+template <ListBuildPath kPath>
+SL_INLINE unsigned lanes_positive(const float* x) {
+  return positive_lanes<kPath>(x);
 }
 
+#include "core/list_tile_raster.inc"
+
+}  // namespace lanes4
+
+#if SL_AVX2_SLAB
+#if defined(__clang__)
+#pragma clang attribute push(__attribute__((target("avx2"))), apply_to = function)
+#else
+#pragma GCC push_options
+#pragma GCC target("avx2")
+#endif
+namespace lanes8 {  // AVX2: everything defined here is compiled for it, and runs only where the host has it
+
+constexpr int kLanes = 8;
+// slab_impl's SSE2 code eight lanes wide: the same IEEE operations per lane (vminps, vmaxps return
+// their second operand as minps, maxps do; the ordered, quiet compares are cmpltps, cmpgtps).
+template <bool kShared>
+SL_INLINE unsigned slab8(const float* const o[3], const float* const inv[3], std::size_t i, const float* lo,
+                         const float* hi, float* t0, float* t1) {
+  __m256 near = _mm256_set1_ps(-3.402823466e+38f);
+  __m256 far = _mm256_set1_ps(3.402823466e+38f);
+  for (int a = 0; a < 3; ++a) {
+    const __m256 ia = _mm256_loadu_ps(inv[a] + i);
+    __m256 dl = _mm256_set1_ps(lo[a]), dh = _mm256_set1_ps(hi[a]);
+    if constexpr (!kShared) {
+      const __m256 oa = _mm256_loadu_ps(o[a] + i);
+      dl = _mm256_sub_ps(dl, oa);
+      dh = _mm256_sub_ps(dh, oa);
+    }
+    const __m256 u = _mm256_mul_ps(dl, ia);
+    const __m256 v = _mm256_mul_ps(dh, ia);
+    near = _mm256_max_ps(_mm256_min_ps(v, u), near);
+    far = _mm256_min_ps(_mm256_max_ps(u, v), far);
+  }
+  _mm256_storeu_ps(t0, near);
+  _mm256_storeu_ps(t1, far);
+  return unsigned(_mm256_movemask_ps(
+      _mm256_and_ps(_mm256_cmp_ps(near, far, _CMP_LT_OQ), _mm256_cmp_ps(far, _mm256_setzero_ps(), _CMP_GT_OQ))));
+}
 template <ListBuildPath kPath>
+SL_INLINE unsigned lanes_slab(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b,
+                              float* t0, float* t1) {
+  static_assert(kPath == ListBuildPath::Fast);
+  return slab8<false>(o, inv, i, &b.lo.x, &b.hi.x, t0, t1);
+}
+template <ListBuildPath kPath>
+SL_INLINE unsigned lanes_slab_shared(const float* const inv[3], std::size_t i, const float lo_o[3],
+                                     const float hi_o[3], float* t0, float* t1) {
+  static_assert(kPath == ListBuildPath::Fast);
+  return slab8<true>(nullptr, inv, i, lo_o, hi_o, t0, t1);
+}
+template <ListBuildPath kPath>
+SL_INLINE void lanes_store(float* dst, const float* t, unsigned lanes) {
+  const __m256i bits = _mm256_setr_epi32(1, 2, 4, 8, 16, 32, 64, 128);
+  const __m256i mask = _mm256_cmpeq_epi32(_mm256_and_si256(_mm256_set1_epi32(int(lanes)), bits), bits);
+  _mm256_storeu_ps(dst, _mm256_and_ps(_mm256_loadu_ps(t), _mm256_castsi256_ps(mask)));
+}
+template <ListBuildPath kPath>
+SL_INLINE unsigned lanes_positive(const float* x) {
+  return unsigned(_mm256_movemask_ps(_mm256_cmp_ps(_mm256_loadu_ps(x), _mm256_setzero_ps(), _CMP_GT_OQ)));
+}
+
+#include "core/list_tile_raster.inc"
+
+unsigned slab8_box(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b, float* t0,
+                   float* t1) {
+  return slab8<false>(o, inv, i, &b.lo.x, &b.hi.x, t0, t1);
+}
+unsigned slab8_box_shared(const float* const inv[3], std::size_t i, const vec3& origin, const Box3& b, float* t0,
+                          float* t1) {
+  float lo_o[3], hi_o[3];
+  for (int a = 0; a < 3; ++a) {
+    lo_o[a] = b.lo[a] - origin[a];
+    hi_o[a] = b.hi[a] - origin[a];
+  }
+  return slab8<true>(nullptr, inv, i, lo_o, hi_o, t0, t1);
+}
+
+}  // namespace lanes8
+#if defined(__clang__)
+#pragma clang attribute pop
+#else
+#pragma GCC pop_options
+#endif
+
+#endif
+
+}  // namespace
+
+namespace detail {
+
+unsigned slab8(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b, float* t0, float* t1) {
+  SL_CHECK(list_build_lanes8());
+#if SL_AVX2_SLAB
+  return lanes8::slab8_box(o, inv, i, b, t0, t1);
+#else
+  return 0u;
+#endif
+}
+
+unsigned slab8_shared(const float* const inv[3], std::size_t i, const vec3& origin, const Box3& b, float* t0,
+                      float* t1) {
+  SL_CHECK(list_build_lanes8());
+#if SL_AVX2_SLAB
+  return lanes8::slab8_box_shared(inv, i, origin, b, t0, t1);
+#else
+  return 0u;
+#endif
+}
+
+}  // namespace detail
+
+bool list_build_lanes8() {
+#if SL_AVX2_SLAB
+  static const bool available = __builtin_cpu_supports("avx2");
+  return available;
+#else
+  return false;
+#endif
+}
+
+namespace {
+
+// kLanes8: the eight-lane rasterizer (Fast only).
+template <ListBuildPath kPath, bool kLanes8>
 void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<std::uint32_t>& entries,
                 SegmentListStats& st) {
   SegmentListBuffer& out = job.out;
@@ -476,7 +530,15 @@ void build_tile(const TileJob& job, const ScreenRect& tile, const std::vector<st
   for (;;) {
     if (s.events.size() < std::size_t(s.capacity) * kTilePixels) s.events.resize(std::size_t(s.capacity) * kTilePixels);
     tests = 0;
-    rasterize_tile<kPath>(job, tile, entries, s, tests);
+#if SL_AVX2_SLAB
+    if constexpr (kLanes8) {
+      lanes8::rasterize_tile<kPath>(job, tile, entries, s, tests);
+    } else {
+      lanes4::rasterize_tile<kPath>(job, tile, entries, s, tests);
+    }
+#else
+    lanes4::rasterize_tile<kPath>(job, tile, entries, s, tests);
+#endif
     std::uint32_t words = 0;
     total = 0;
     for (int k = 0; k < kTilePixels; ++k) {
@@ -526,13 +588,16 @@ SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::spa
   const std::vector<EntryRec> entries = entry_records(geometry, order, box_rects(geometry.boxes, gen), depth);
   EventArena arena(out);
   const TileJob job{entries, gen, depth, eps, arena, out};
+  const bool lanes8 = path == ListBuildPath::Fast && list_build_lanes8();
   const SegmentListStats st = for_each_tile(
       gen, entries.size(), [&](std::size_t i) -> const ScreenRect& { return entries[i].rect; },
       [&](const ScreenRect& tile, const std::vector<std::uint32_t>& entries, SegmentListStats& s) {
-        if (path == ListBuildPath::Fast) {
-          build_tile<ListBuildPath::Fast>(job, tile, entries, s);
+        if (path == ListBuildPath::Scalar) {
+          build_tile<ListBuildPath::Scalar, false>(job, tile, entries, s);
+        } else if (lanes8) {
+          build_tile<ListBuildPath::Fast, true>(job, tile, entries, s);
         } else {
-          build_tile<ListBuildPath::Scalar>(job, tile, entries, s);
+          build_tile<ListBuildPath::Fast, false>(job, tile, entries, s);
         }
       });
   arena.finish();

@@ -4,8 +4,8 @@
 // test decides hits, exactly as the GL fragment shader does) and adds the event (Alg. 4-5).
 //
 // Its fast paths, each with a scalar twin it is tested against (STYLE.md #15):
-//  - slab tests and lane masks on four pixels at once (SSE2; ListBuildPath::Scalar is the twin), the
-//    slab test lane for lane intersect()'s result (slab4);
+//  - slab tests and lane masks on eight pixels at once (AVX2, chosen at run time) or four (SSE2;
+//    ListBuildPath::Scalar is the twin), the slab test lane for lane intersect()'s result (slab4);
 //  - a box's BACK entry reuses the exit its FRONT entry found: the visibility order is depth-first
 //    (FRONT in pre-order, BACK in post-order), so for one pixel the entries of the boxes covering it
 //    nest like parentheses, and one slot per nesting level and pixel holds the exit t of the open box
@@ -46,10 +46,15 @@ struct ScreenRect {
 // rectangle for its primitive.
 ScreenRect conservative_screen_rect(const Box3& box, const RayGenerator& gen);
 
-// Which code runs the tile builder's lanes (slab tests, lane masks): Fast is the SSE2 code where the
-// host has it (the scalar code elsewhere); Scalar is always the scalar twin. Renderers use Fast; the
-// tests check that both give the same lists and, lane for lane, intersect()'s hits (STYLE.md #15).
-enum class ListBuildPath { Fast, Scalar };
+// Which code runs the tile builder's lanes (slab tests, lane masks): Fast is the widest the host has —
+// eight pixels at once with AVX2 (checked at run time), else four with SSE2, else the scalar code;
+// Sse2 is the four-lane code (what Fast runs without AVX2); Scalar is always the scalar twin.
+// Renderers use Fast; the tests check that all three give the same lists and, lane for lane,
+// intersect()'s hits (STYLE.md #15).
+enum class ListBuildPath { Fast, Scalar, Sse2 };
+
+// Whether ListBuildPath::Fast runs eight lanes (AVX2) on this host.
+bool list_build_lanes8();
 
 namespace detail {
 
@@ -78,6 +83,12 @@ extern template unsigned slab4_shared<ListBuildPath::Fast>(const float* const[3]
                                                            const Box3&, float*, float*);
 extern template unsigned slab4_shared<ListBuildPath::Scalar>(const float* const[3], std::size_t, const vec3&,
                                                              const Box3&, float*, float*);
+
+// slab4 and slab4_shared eight lanes wide (lanes i .. i + 7), with AVX2: the tile builder's Fast lanes
+// where the host has it. Call only where list_build_lanes8().
+unsigned slab8(const float* const o[3], const float* const inv[3], std::size_t i, const Box3& b, float* t0, float* t1);
+unsigned slab8_shared(const float* const inv[3], std::size_t i, const vec3& origin, const Box3& b, float* t0,
+                      float* t1);
 
 // The rays of a kTileSize x kTileSize screen tile (pixel k = ly * kTileSize + lx) as structure of
 // arrays: origins and slab_reciprocal'd directions, bit for bit gen.ray()'s, and the directions

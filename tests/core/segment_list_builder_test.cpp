@@ -73,13 +73,16 @@ void expect_same_lists(const SegmentListBuffer& a, const SegmentListBuffer& b) {
 void check_against_reference(const Fixture& f, const Camera& cam, int w, int h, float eps) {
   const RayGenerator gen = make_ray_generator(cam, w, h);
   const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
-  SegmentListBuffer tiles, scalar, brute;
-  const SegmentListStats s = build_segment_lists(f.geometry, order, gen, tiles, eps);
+  SegmentListBuffer tiles, scalar, sse2, brute;
+  const SegmentListStats s = build_segment_lists(f.geometry, order, gen, tiles, eps);  // 8 lanes with AVX2
   const SegmentListStats c = build_segment_lists(f.geometry, order, gen, scalar, eps, ListBuildPath::Scalar);
+  const SegmentListStats q = build_segment_lists(f.geometry, order, gen, sse2, eps, ListBuildPath::Sse2);
   const SegmentListStats r = build_segment_lists_reference(f.geometry, order, gen, brute, eps);
   expect_same_lists(tiles, brute);
-  expect_same_lists(scalar, brute);  // the fast path's scalar twin (STYLE.md #15)
+  expect_same_lists(scalar, brute);  // the fast paths' scalar twin (STYLE.md #15)
+  expect_same_lists(sse2, brute);    // the four-lane path (Fast's without AVX2)
   EXPECT_EQ(s.slab_tests, c.slab_tests);
+  EXPECT_EQ(q.slab_tests, c.slab_tests);
   EXPECT_EQ(s.events, r.events);
   EXPECT_EQ(s.segments, r.segments);
   EXPECT_EQ(s.max_events, r.max_events);
@@ -145,12 +148,14 @@ TEST(SegmentListBuilder, LongListsNeverOverflow) {
   const Camera cam = perspective(vec3(-40.0f, 5.0f, 6.0f), vec3(300.0f, 4.0f, 4.0f), 4.0f);
   const RayGenerator gen = make_ray_generator(cam, 37, 29);
   const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
-  SegmentListBuffer tiles, scalar, brute;
+  SegmentListBuffer tiles, scalar, sse2, brute;
   const SegmentListStats s = build_segment_lists(f.geometry, order, gen, tiles);
   build_segment_lists(f.geometry, order, gen, scalar, 0.0f, ListBuildPath::Scalar);
+  build_segment_lists(f.geometry, order, gen, sse2, 0.0f, ListBuildPath::Sse2);
   build_segment_lists_reference(f.geometry, order, gen, brute);
   expect_same_lists(tiles, brute);
   expect_same_lists(scalar, brute);
+  expect_same_lists(sse2, brute);
   EXPECT_GT(s.max_events, 2u * kMaxEvents);  // the tile scratch grew (twice at least)
   EXPECT_EQ(s.overflows, 0u);
   EXPECT_EQ(s.events, tiles.event_count);
@@ -255,7 +260,7 @@ TEST(SegmentListBuilder, TileBuilderNeedsADepthFirstOrder) {
 }
 
 // The 4-wide slab test and its scalar twin give intersect()'s hit decision and, on a hit, its t0 and
-// t1 bit for bit (STYLE.md #15), lane for lane — including rays parallel to an axis, origins on a
+// t1 bit for bit (STYLE.md #15), lane for lane (and the 8-wide AVX2 one the twin's, where it runs) — including rays parallel to an axis, origins on a
 // slab's plane, inside the box, and boxes of zero thickness.
 // The slab properties' inputs from one seed: uniform floats, coordinates that snap to a few values
 // (coincident planes and origins) and boxes, some of zero thickness.
@@ -325,10 +330,19 @@ RC_GTEST_PROP(SegmentListBuilderProperty, Slab4EqualsIntersectLaneForLane, (std:
       }
     }
   }
+  if (list_build_lanes8()) {  // the eight-lane (AVX2) test: both halves the four-lane twin's
+    alignas(32) float e0[8], e1[8], s0[8], s1[8];
+    const unsigned eight = detail::slab8(op, ip, 0, box, e0, e1);
+    const unsigned lo = detail::slab4<ListBuildPath::Scalar>(op, ip, 0, box, s0, s1);
+    const unsigned hi = detail::slab4<ListBuildPath::Scalar>(op, ip, 4, box, s0 + 4, s1 + 4);
+    RC_ASSERT(eight == (lo | hi << 4));
+    RC_ASSERT(std::memcmp(e0, s0, sizeof s0) == 0 && std::memcmp(e1, s1, sizeof s1) == 0);
+  }
 }
 
 // Perspective rays share their origin: the Fast path's slab test with the box taken relative to it
-// once (slab4_shared, both paths) is bit for bit slab4's on the same rays, lane for lane.
+// once (slab4_shared, both paths; slab8_shared with AVX2) is bit for bit slab4's on the same rays,
+// lane for lane.
 RC_GTEST_PROP(SegmentListBuilderProperty, Slab4SharedEqualsSlab4LaneForLane, (std::uint64_t seed)) {
   SlabInputs in{seed};
   auto next = [&] { return in.next(); };
@@ -362,6 +376,14 @@ RC_GTEST_PROP(SegmentListBuilderProperty, Slab4SharedEqualsSlab4LaneForLane, (st
     RC_CLASSIFY(ref != 0u, "some lane hits");
     RC_ASSERT(std::memcmp(f0, s0, sizeof s0) == 0 && std::memcmp(f1, s1, sizeof s1) == 0);
     RC_ASSERT(std::memcmp(c0, s0, sizeof s0) == 0 && std::memcmp(c1, s1, sizeof s1) == 0);
+  }
+  if (list_build_lanes8()) {
+    alignas(32) float e0[8], e1[8], s0[8], s1[8];
+    const unsigned eight = detail::slab8_shared(ip, 0, origin, box, e0, e1);
+    const unsigned lo = detail::slab4<ListBuildPath::Scalar>(op, ip, 0, box, s0, s1);
+    const unsigned hi = detail::slab4<ListBuildPath::Scalar>(op, ip, 4, box, s0 + 4, s1 + 4);
+    RC_ASSERT(eight == (lo | hi << 4));
+    RC_ASSERT(std::memcmp(e0, s0, sizeof s0) == 0 && std::memcmp(e1, s1, sizeof s1) == 0);
   }
 }
 
@@ -537,6 +559,37 @@ ClassComparison compare_flattened_classes(const Fixture& f, const RayGenerator& 
     }
   }
   return r;
+}
+
+// The lane paths (eight lanes where the host has AVX2, four, scalar) give the same lists, bit for
+// bit, on random trees seen from anywhere — outside, inside, orthographic, at grazing angles along the
+// axes (direction components of zero, whose slab reciprocals are infinite) — at image sizes whose rows
+// end inside a group of lanes.
+RC_GTEST_PROP(SegmentListBuilderProperty, EveryLanePathGivesTheSameLists, (std::uint64_t seed)) {
+  Uniform u{seed};
+  const Fixture f = rich_fixture(seed, ivec3(64), vec3(1.0f, 0.75f, 1.5f));
+  const float pick = u(0, 1);
+  vec3 eye = pick < 0.2f ? vec3(u(4, 60), u(4, 45), u(4, 90))  // inside the volume
+                         : vec3(32.0f) + glm::normalize(vec3(u(-1, 1), u(-1, 1), u(-1, 1)) + vec3(1e-3f)) * u(70, 200);
+  vec3 target(u(16, 48), u(16, 40), u(16, 80));
+  if (pick > 0.85f) target = eye + vec3(u(0, 1) < 0.5f ? 50.0f : -50.0f, 0.0f, 0.0f);  // along an axis
+  const Camera cam = u(0, 1) < 0.3f ? orthographic(eye, target, u(40, 120)) : perspective(eye, target, u(30, 90));
+  const RayGenerator gen = make_ray_generator(cam, int(u(9, 70)), int(u(9, 50)));
+  const auto order = build_visibility_order(f.tree, f.geometry, view_point(gen));
+  SegmentListBuffer fast, sse2, scalar;
+  const SegmentListStats a = build_segment_lists(f.geometry, order, gen, fast);
+  const SegmentListStats b = build_segment_lists(f.geometry, order, gen, sse2, 0.0f, ListBuildPath::Sse2);
+  const SegmentListStats c = build_segment_lists(f.geometry, order, gen, scalar, 0.0f, ListBuildPath::Scalar);
+  RC_ASSERT(a.slab_tests == c.slab_tests);
+  RC_ASSERT(b.slab_tests == c.slab_tests);
+  RC_ASSERT(a.events == c.events);
+  RC_ASSERT(b.events == c.events);
+  for (std::size_t i = 0; i < scalar.counts.size(); ++i) {
+    RC_ASSERT(fast.counts[i] == scalar.counts[i]);
+    RC_ASSERT(sse2.counts[i] == scalar.counts[i]);
+    RC_ASSERT(std::memcmp(fast.list(i), scalar.list(i), scalar.count(i) * sizeof(RayEvent)) == 0);
+    RC_ASSERT(std::memcmp(sse2.list(i), scalar.list(i), scalar.count(i) * sizeof(RayEvent)) == 0);
+  }
 }
 
 // Flattened lists give every ray the original's classes along its whole length: random trees,
