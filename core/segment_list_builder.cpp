@@ -227,27 +227,6 @@ std::vector<ScreenRect> box_rects(std::span<const OccupancyBox> boxes, const Ray
   return rects;
 }
 
-// Nesting level of each entry (how many boxes are open around it), checking what the tile builder
-// relies on: every BACK entry closes the box opened last. `depth`: the deepest level + 1.
-std::vector<std::uint32_t> nesting_levels(std::span<const VisibilityEntry> order, std::uint32_t& depth) {
-  std::vector<std::uint32_t> level(order.size()), open;
-  depth = 0;
-  for (std::size_t i = 0; i < order.size(); ++i) {
-    const std::uint32_t box = order[i].box;
-    if (order[i].face == Face::Front) {
-      level[i] = std::uint32_t(open.size());
-      open.push_back(box);
-      depth = std::max(depth, std::uint32_t(open.size()));
-    } else {
-      SL_CHECK(!open.empty() && open.back() == box);
-      open.pop_back();
-      level[i] = std::uint32_t(open.size());
-    }
-  }
-  SL_CHECK(open.empty());
-  return level;
-}
-
 // add_event's common case, written out: an event later than every depth the list has seen, that
 // changes the class, with room for it and no short-gap rule (eps = 0) meets none of Alg. 5's rules
 // and is appended as it is. Anything else goes through add_event. Exactly add_event's result: the
@@ -340,19 +319,50 @@ struct EntryRec {
 };
 static_assert(sizeof(EntryRec) == 48, "EntryRec layout");
 
-std::vector<EntryRec> entry_records(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order,
-                                    const std::vector<ScreenRect>& rects, std::uint32_t& depth) {
-  const std::vector<std::uint32_t> level = nesting_levels(order, depth);
-  std::vector<EntryRec> rec(order.size());
+// The frame's entry records, in `rec` (kept by the caller between frames: no allocation, no zero
+// fill per frame once it has seen its largest order). One parallel pass makes them, a FRONT entry's
+// with its box's screen rectangle; a BACK entry then takes its FRONT entry's rectangle. Checks what
+// the tile builder relies on: every BACK entry closes the box opened last. `depth`: the deepest
+// nesting level + 1.
+void entry_records(const OccupancyGeometry& geometry, std::span<const VisibilityEntry> order, const RayGenerator& gen,
+                   std::vector<EntryRec>& rec, std::uint32_t& depth) {
+  // Kept per calling thread; the parallel loop's workers see them through these references (a
+  // thread_local named in a lambda would be the worker's own).
+  thread_local std::vector<std::uint32_t> level_kept, opener_kept, open_kept;
+  std::vector<std::uint32_t>& level = level_kept;
+  std::vector<std::uint32_t>& opener = opener_kept;  // a BACK entry's FRONT entry
+  std::vector<std::uint32_t>& open = open_kept;
+  level.resize(order.size());
+  opener.resize(order.size());
+  open.clear();
+  depth = 0;
+  for (std::size_t i = 0; i < order.size(); ++i) {
+    if (order[i].face == Face::Front) {
+      level[i] = std::uint32_t(open.size());
+      open.push_back(std::uint32_t(i));
+      depth = std::max(depth, std::uint32_t(open.size()));
+    } else {
+      SL_CHECK(!open.empty() && order[open.back()].box == order[i].box);
+      opener[i] = open.back();
+      open.pop_back();
+      level[i] = std::uint32_t(open.size());
+    }
+  }
+  SL_CHECK(open.empty());
+  rec.resize(order.size());
   parallel_for(std::size_t(0), order.size(), [&](std::size_t lo, std::size_t hi) {
     for (std::size_t e = lo; e != hi; ++e) {
       const VisibilityEntry& v = order[e];
       const OccupancyBox& b = geometry.boxes[v.box];
-      const bool leaf = v.face == Face::Front && e + 1 < order.size() && order[e + 1].box == v.box;
-      rec[e] = EntryRec{b.box, rects[v.box], level[e], b.cls, b.parent_cls, v.face == Face::Front, leaf};
+      const bool front = v.face == Face::Front;
+      const bool leaf = front && e + 1 < order.size() && order[e + 1].box == v.box;
+      rec[e] = EntryRec{b.box, front ? conservative_screen_rect(b.box, gen) : ScreenRect{}, level[e], b.cls,
+                        b.parent_cls, front, leaf};
     }
   });
-  return rec;
+  for (std::size_t e = 0; e < order.size(); ++e) {
+    if (!rec[e].front) rec[e].rect = rec[opener[e]].rect;
+  }
 }
 
 struct TileJob {
@@ -585,7 +595,9 @@ SegmentListStats build_segment_lists(const OccupancyGeometry& geometry, std::spa
                                      const RayGenerator& gen, SegmentListBuffer& out, float eps, ListBuildPath path) {
   out.reshape(gen.width, gen.height);  // build_tile writes every pixel
   std::uint32_t depth = 0;
-  const std::vector<EntryRec> entries = entry_records(geometry, order, box_rects(geometry.boxes, gen), depth);
+  thread_local std::vector<EntryRec> entries_kept;  // per calling thread, kept between frames
+  std::vector<EntryRec>& entries = entries_kept;    // (the workers see it through this reference)
+  entry_records(geometry, order, gen, entries, depth);
   EventArena arena(out);
   const TileJob job{entries, gen, depth, eps, arena, out};
   const bool lanes8 = path == ListBuildPath::Fast && list_build_lanes8();
