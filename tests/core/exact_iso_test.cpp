@@ -2,6 +2,7 @@
 // root, the cell walk and the analytic gradient, then whole renders against closed forms (a plane, a
 // product of linear factors, a sphere distance field) and against a reference root found in double
 // precision by a dense scan of the same clamped trilinear interpolant.
+#include <cfloat>
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
@@ -75,6 +76,25 @@ RC_GTEST_PROP(ExactIsoProperty, Lr81FindsTheFirstRootOfAProductOfLinearFactors, 
     }
   }
   for (int i = 0; i + 1 < n; ++i) RC_PRE(roots[i + 1] - roots[i] > 1e-3);  // no (near-)double roots
+  // Roots float arithmetic can place within the tolerance: moving by it changes the cubic by more than
+  // a few roundings of the corner values (two roots 1e-2 apart on a segment whose three factors change
+  // slowly leave a slope of 5e-6 there, and a root float cannot find to 1e-4).
+  float vmax = 0.0f;
+  for (float v : c.v) vmax = std::max(vmax, std::fabs(v));
+  const auto slope = [&](double t) {
+    double sum = 0.0;
+    for (int a = 0; a < 3; ++a) {
+      double term = double(f1[a]) - double(f0[a]);
+      for (int k = 0; k < 3; ++k) {
+        if (k != a) term *= double(f0[k]) + t * (double(f1[k]) - double(f0[k])) - double(abc[k]);
+      }
+      sum += term;
+    }
+    return std::fabs(sum);
+  };
+  for (int i = 0; i < std::min(n, 2); ++i) {
+    RC_PRE(slope(roots[i]) * (1e-4 / double(len)) > 4.0 * double(FLT_EPSILON) * double(vmax));
+  }
   float b[4];
   ray_bernstein(c, f0, f1, b);
   float s = -1.0f;
