@@ -587,6 +587,7 @@ RC_GTEST_PROP(SegmentListBuilderProperty, EveryLanePathGivesTheSameLists, (std::
   for (std::size_t i = 0; i < scalar.counts.size(); ++i) {
     RC_ASSERT(fast.counts[i] == scalar.counts[i]);
     RC_ASSERT(sse2.counts[i] == scalar.counts[i]);
+    if (scalar.count(i) == 0u) continue;  // a view may hold no events at all (no array to compare)
     RC_ASSERT(std::memcmp(fast.list(i), scalar.list(i), scalar.count(i) * sizeof(RayEvent)) == 0);
     RC_ASSERT(std::memcmp(sse2.list(i), scalar.list(i), scalar.count(i) * sizeof(RayEvent)) == 0);
   }
