@@ -153,7 +153,6 @@ template unsigned slab4_shared<ListBuildPath::Scalar>(const float* const[3], std
 
 namespace {
 
-using detail::EventArena;
 using detail::ListEntry;
 using detail::ListTileJob;
 
