@@ -1,13 +1,14 @@
 // Reads the CUDA fat binaries embedded in a host binary (executable, object or archive) without the
 // CUDA toolkit's cuobjdump (not in the nvcc packages these machines have): every fatbin blob starts
-// with the magic 0xBA55ED50; its entries are PTX (kind 1, compressed by default) or ELF cubins
-// (kind 2, stored uncompressed unless -compress-all or, under nvcc 13's default compress mode, once a
-// cubin is large enough: flag 0x8000, a zstd frame, which is decompressed here with libzstd; flag
-// 0x2000 is LZ4, not read), each with its SM architecture. For the cubins
-// the function names are read from the ELF section headers (a kernel's code is ".text.<mangled>").
+// with the magic 0xBA55ED50; its entries are PTX (kind 1) or ELF cubins (kind 2), each with its SM
+// architecture, stored plain or, under nvcc 13's default compress mode once an entry is large enough,
+// as a zstd frame (flag 0x8000, decompressed here with libzstd; flag 0x2000 is LZ4, not read). For the
+// cubins the function names are read from the ELF section headers (a kernel's code is
+// ".text.<mangled>"); for PTX from its ".entry <mangled>(" directives.
 // Layout as nvcc 13's fatbinary writes it, checked against the files it produces.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -23,6 +24,7 @@ namespace sl::test {
 
 struct FatbinContents {
   std::map<int, std::set<std::string>> elf_functions;  // sm -> ".text." section names (mangled)
+  std::map<int, std::set<std::string>> ptx_functions;  // compute arch -> kernel entries (mangled)
   std::set<int> ptx_archs;                             // archs with a PTX entry
   int blobs = 0;
 };
@@ -57,6 +59,33 @@ inline void read_cubin(const std::vector<char>& d, std::size_t base, std::size_t
   }
 }
 
+// The kernels a PTX text defines: ".entry NAME(" (".visible .entry", ".entry" of internal linkage).
+inline void read_ptx(const char* text, std::size_t size, std::set<std::string>& out) {
+  const std::string t(text, strnlen(text, size));
+  for (std::size_t at = t.find(".entry "); at != std::string::npos; at = t.find(".entry ", at + 7)) {
+    const std::size_t b = at + 7, e = t.find_first_of("( \n", b);
+    if (e != std::string::npos && e > b) out.insert(t.substr(b, e - b));
+  }
+}
+
+// An entry's bytes as stored (plain) or decompressed (one zstd frame; the entry may be padded past
+// it); empty when it cannot be read (LZ4, or a frame that does not decode).
+inline std::vector<char> entry_bytes(const std::vector<char>& d, std::size_t at, std::size_t size, std::uint64_t flags) {
+  if ((flags & 0x2000u) != 0) return {};
+  if ((flags & 0x8000u) == 0) return std::vector<char>(d.begin() + std::ptrdiff_t(at), d.begin() + std::ptrdiff_t(at + size));
+  const char* src = d.data() + at;
+  const std::size_t frame = ZSTD_findFrameCompressedSize(src, size);
+  const unsigned long long out_size = ZSTD_getFrameContentSize(src, size);
+  if (ZSTD_isError(frame) || out_size == ZSTD_CONTENTSIZE_ERROR || out_size == ZSTD_CONTENTSIZE_UNKNOWN ||
+      out_size >= (1ull << 32)) {
+    return {};
+  }
+  std::vector<char> out(static_cast<std::size_t>(out_size));
+  const std::size_t n = ZSTD_decompress(out.data(), out.size(), src, frame);
+  out.resize(ZSTD_isError(n) ? 0 : n);
+  return out;
+}
+
 }  // namespace fatbin_detail
 
 inline FatbinContents read_fatbins(const std::string& path) {
@@ -81,29 +110,24 @@ inline FatbinContents read_fatbins(const std::string& path) {
       const auto arch = rd<std::uint32_t>(d, p + 28);
       const auto flags = rd<std::uint64_t>(d, p + 40);
       if (entry_header < 64 || p + entry_header + size > end) break;
-      const bool lz4 = (flags & 0x2000u) != 0, zstd = (flags & 0x8000u) != 0;
-      if (kind == 1) c.ptx_archs.insert(int(arch));
-      if (kind == 2 && !lz4 && !zstd) read_cubin(d, p + entry_header, std::size_t(size), c.elf_functions[int(arch)]);
-      if (kind == 2 && zstd) {
-        // The entry may be padded past the frame: decompress exactly one frame.
-        const char* src = d.data() + p + entry_header;
-        const std::size_t frame = ZSTD_findFrameCompressedSize(src, std::size_t(size));
-        const unsigned long long out_size = ZSTD_getFrameContentSize(src, std::size_t(size));
-        std::vector<char> elf;
-        if (!ZSTD_isError(frame) && out_size != ZSTD_CONTENTSIZE_ERROR && out_size != ZSTD_CONTENTSIZE_UNKNOWN &&
-            out_size < (1ull << 32)) {
-          elf.resize(std::size_t(out_size));
-          const std::size_t n = ZSTD_decompress(elf.data(), elf.size(), src, frame);
-          if (ZSTD_isError(n)) elf.clear();
-          elf.resize(ZSTD_isError(n) ? 0 : n);
-        }
-        if (elf.empty()) {
-          c.elf_functions[int(arch)].insert("<compressed>");
+      const std::vector<char> bytes = entry_bytes(d, p + entry_header, std::size_t(size), flags);
+      if (kind == 1) {
+        c.ptx_archs.insert(int(arch));
+        std::set<std::string>& fns = c.ptx_functions[int(arch)];
+        if (bytes.empty()) {
+          fns.insert("<compressed>");
         } else {
-          read_cubin(elf, 0, elf.size(), c.elf_functions[int(arch)]);
+          read_ptx(bytes.data(), bytes.size(), fns);
         }
       }
-      if (kind == 2 && lz4) c.elf_functions[int(arch)].insert("<compressed>");
+      if (kind == 2) {
+        std::set<std::string>& fns = c.elf_functions[int(arch)];
+        if (bytes.empty()) {
+          fns.insert("<compressed>");
+        } else {
+          read_cubin(bytes, 0, bytes.size(), fns);
+        }
+      }
       p += entry_header + size;
     }
     i = end - 1;

@@ -1,5 +1,6 @@
-// The CUDA kernels are in the binaries for every architecture CMake built (sm_75 .. sm_90 plus PTX by
-// default), found by reading the embedded fat binaries (tests/cuda/fatbin.h; the toolkit's cuobjdump
+// The CUDA kernels are in the binaries for every architecture CMake built (SASS for each real
+// architecture, PTX for each virtual one: CMakeLists.txt's SL_CUDA_ARCHS), found by reading the
+// embedded fat binaries (tests/cuda/fatbin.h; the toolkit's cuobjdump
 // is not part of the nvcc packages on these machines). No GPU is needed.
 #include <gtest/gtest.h>
 
@@ -63,25 +64,30 @@ TEST(CudaKernels, EveryMethodAndSamplerIsInTheExecutableForEveryArchitecture) {
   const std::vector<std::string> tex = {"21TextureVirtualSamplerIhE", "21TextureVirtualSamplerItE",
                                         "21TextureVirtualSamplerIfE"};
   const std::string none = "12sl_cast_none", octree = "14sl_cast_octree", lists = "21sl_cast_segment_lists";
-  for (const Arch& a : archs) {
-    if (a.ptx) {
-      EXPECT_TRUE(c.ptx_archs.count(a.sm)) << "no PTX for compute_" << a.sm;
-    }
-    if (!a.sass) continue;
-    ASSERT_TRUE(c.elf_functions.count(a.sm)) << "no SASS for sm_" << a.sm;
-    const std::set<std::string>& fns = c.elf_functions.at(a.sm);
-    ASSERT_FALSE(fns.count("<compressed>")) << "cubins are compressed: cannot list their kernels";
+  // Every kernel in the code of every architecture: each SASS (cubin) and each PTX text.
+  auto expect_kernels = [&](const std::set<std::string>& fns, const std::string& where) {
+    ASSERT_FALSE(fns.count("<compressed>")) << where << ": cannot be decompressed, its kernels not listed";
     for (const std::string& s : dense) {
       for (const std::string& k : {none, octree, lists}) {
-        EXPECT_TRUE(has_function(fns, k, s)) << "sm_" << a.sm << ": " << k << " over " << s << list_functions(fns);
+        EXPECT_TRUE(has_function(fns, k, s)) << where << ": " << k << " over " << s << list_functions(fns);
       }
     }
     for (const auto* set : {&virt, &tex}) {
       for (const std::string& s : *set) {
         for (const std::string& k : {none, lists}) {
-          EXPECT_TRUE(has_function(fns, k, s)) << "sm_" << a.sm << ": " << k << " over " << s;
+          EXPECT_TRUE(has_function(fns, k, s)) << where << ": " << k << " over " << s;
         }
       }
+    }
+  };
+  for (const Arch& a : archs) {
+    if (a.ptx) {
+      ASSERT_TRUE(c.ptx_functions.count(a.sm)) << "no PTX for compute_" << a.sm;
+      expect_kernels(c.ptx_functions.at(a.sm), "PTX compute_" + std::to_string(a.sm));
+    }
+    if (a.sass) {
+      ASSERT_TRUE(c.elf_functions.count(a.sm)) << "no SASS for sm_" << a.sm;
+      expect_kernels(c.elf_functions.at(a.sm), "SASS sm_" + std::to_string(a.sm));
     }
   }
 }
