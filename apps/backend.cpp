@@ -2,8 +2,8 @@
 
 #include <cstdio>
 
-#include "core/error.h"
-#include "core/segment_list_builder.h"
+#include "core/util/error.h"
+#include "core/lists/segment_list_builder.h"
 #ifdef SL_HAVE_CUDA
 #include "cuda/cuda_renderer.h"
 #endif

@@ -8,7 +8,7 @@
 
 #include "cache/cast_device.h"
 #include "cache/out_of_core.h"
-#include "core/in_core_renderer.h"
+#include "core/frame/in_core_renderer.h"
 
 namespace sl::app {
 

@@ -14,11 +14,11 @@
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
 #include "cache/formats/counting_byte_store.h"
-#include "core/atomic_file.h"
-#include "core/camera_path.h"
-#include "core/error.h"
-#include "core/parallel.h"
-#include "core/process_memory.h"
+#include "core/util/atomic_file.h"
+#include "core/scene/camera_path.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
+#include "core/util/process_memory.h"
 #if SL_HAVE_MPI
 #include "apps/distributed.h"
 #endif

@@ -13,9 +13,9 @@
 
 #include "apps/commands.h"
 #include "cache/work_estimate.h"
-#include "core/error.h"
-#include "core/process_memory.h"
-#include "core/render_mode.h"
+#include "core/util/error.h"
+#include "core/util/process_memory.h"
+#include "core/scene/render_mode.h"
 
 namespace sl::app {
 

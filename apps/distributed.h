@@ -1,7 +1,7 @@
 // `--distributed` (DESIGN.md §11): sort-last rendering under mpirun. Every rank opens the same volume
 // source and runs the ordinary out-of-core renderer on its region of a k-d split of the brick grid
-// (core/kd_regions.h), balanced on the estimated work (cache/work_estimate.h); rays sample the global
-// per-ray grid clipped to the region (core/sample_clip.h); IceT composites the premultiplied float
+// (core/frame/kd_regions.h), balanced on the estimated work (cache/work_estimate.h); rays sample the global
+// per-ray grid clipped to the region (core/cast/sample_clip.h); IceT composites the premultiplied float
 // RGBA in the regions' front-to-back order for the camera, and rank 0 writes the outputs. The thin
 // MPI + IceT layer; built only with SL_MPI (apps/CMakeLists.txt).
 //
@@ -19,10 +19,10 @@
 
 #include "cache/brick.h"
 #include "cache/volume_source.h"
-#include "core/culling.h"
-#include "core/frame.h"
-#include "core/kd_regions.h"
-#include "core/visibility_order.h"
+#include "core/occupancy/culling.h"
+#include "core/frame/frame.h"
+#include "core/frame/kd_regions.h"
+#include "core/lists/visibility_order.h"
 
 namespace sl::app {
 

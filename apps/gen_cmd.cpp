@@ -6,10 +6,10 @@
 #include "apps/commands.h"
 #include "apps/outputs.h"
 #include "apps/scene_loader.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/formats/nrrd.h"
-#include "core/error.h"
-#include "core/stats.h"
+#include "core/util/error.h"
+#include "core/frame/stats.h"
 
 namespace sl::app {
 

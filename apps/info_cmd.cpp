@@ -13,7 +13,7 @@
 #include "cache/formats/zarr3_codec.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl::app {
 

@@ -11,7 +11,7 @@
 #include "apps/commands.h"
 #include "apps/scene_loader.h"
 #include "cache/formats/ingest.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl::app {
 

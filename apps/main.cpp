@@ -6,8 +6,8 @@
 #include <string>
 
 #include "apps/commands.h"
-#include "core/error.h"
-#include "core/printable.h"
+#include "core/util/error.h"
+#include "core/util/printable.h"
 
 namespace {
 

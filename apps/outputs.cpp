@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <filesystem>
 
-#include "core/atomic_file.h"
-#include "core/config.h"
-#include "core/error.h"
+#include "core/util/atomic_file.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
 
 namespace sl::app {
 

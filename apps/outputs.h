@@ -10,7 +10,7 @@
 namespace sl::app {
 
 // PREFIX + ext, or PREFIX itself when it is a character device or FIFO (`--out /dev/null`): a stream
-// takes every image in place (core/atomic_file.h) instead of a file created beside it.
+// takes every image in place (core/util/atomic_file.h) instead of a file created beside it.
 std::string output_with_extension(const std::string& prefix, const std::string& ext);
 
 class OutputFiles {

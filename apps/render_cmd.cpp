@@ -9,9 +9,9 @@
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
 #include "cache/formats/store_url.h"
-#include "core/atomic_file.h"
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 #if SL_HAVE_MPI
 #include "apps/distributed.h"
 #endif

@@ -1,6 +1,6 @@
 #include "apps/render_options.h"
 
-#include "core/fine_occupancy.h"
+#include "core/occupancy/fine_occupancy.h"
 
 #include <CLI/CLI.hpp>
 #include <cmath>
@@ -10,7 +10,7 @@
 
 #include "cache/fault_injection.h"
 #include "cache/synthetic/procedural_neurites.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl::app {
 

@@ -10,7 +10,7 @@
 #include "apps/backend.h"
 #include "apps/scene_loader.h"
 #include "cache/out_of_core.h"
-#include "core/frame.h"
+#include "core/frame/frame.h"
 
 namespace CLI {
 class App;

@@ -4,7 +4,7 @@
 #include <regex>
 
 #include "cache/fault_injection.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "cache/formats/counting_byte_store.h"
 #include "cache/formats/disk_cache.h"
@@ -15,7 +15,7 @@
 #include "cache/formats/volume_file.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 #include <unistd.h>
 

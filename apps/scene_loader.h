@@ -10,10 +10,10 @@
 #include <vector>
 
 #include "cache/volume_source.h"
-#include "core/camera.h"
-#include "core/labels.h"
-#include "core/transfer_function.h"
-#include "core/volume.h"
+#include "core/scene/camera.h"
+#include "core/scene/labels.h"
+#include "core/scene/transfer_function.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 class CountingByteStore;

@@ -1,6 +1,6 @@
 #include "cache/brick.h"
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 

@@ -15,9 +15,9 @@
 #include <cstdint>
 #include <string>
 
-#include "core/config.h"
-#include "core/math.h"
-#include "core/volume.h"
+#include "core/util/config.h"
+#include "core/util/math.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

@@ -4,7 +4,7 @@
 #include <atomic>
 
 #include "cache/page_table.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

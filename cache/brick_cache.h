@@ -18,10 +18,10 @@
 #endif
 
 #include "cache/brick.h"
-#include "core/config.h"
-#include "core/math.h"
-#include "core/sampling.h"
-#include "core/volume.h"
+#include "core/util/config.h"
+#include "core/util/math.h"
+#include "core/recon/sampling.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <exception>
 
-#include "core/config.h"
-#include "core/error.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
 
 namespace sl {
 

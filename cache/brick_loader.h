@@ -56,7 +56,7 @@ struct RetryPolicy {
   std::chrono::milliseconds backoff(int attempt) const;
 };
 
-// Retry counts since the loader was made (the frame stats carry them, core/stats.h).
+// Retry counts since the loader was made (the frame stats carry them, core/frame/stats.h).
 struct LoaderCounts {
   std::uint64_t bricks_retried = 0;  // bricks that failed transiently at least once
   std::uint64_t retries = 0;         // reads repeated after a transient failure

@@ -3,7 +3,7 @@
 #include <algorithm>
 
 #include "cache/virtual_sampler.h"
-#include "core/cast_frame.h"
+#include "core/frame/cast_tiles.h"
 
 namespace sl {
 

@@ -32,8 +32,8 @@
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
 #include "cache/virtual_sampler.h"
-#include "core/cast_pixel.h"
-#include "core/frame.h"
+#include "core/cast/cast_pixel.h"
+#include "core/frame/frame.h"
 
 namespace sl {
 

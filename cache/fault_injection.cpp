@@ -9,8 +9,8 @@
 #include <set>
 #include <thread>
 
-#include "core/config.h"
-#include "core/error.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
 
 namespace sl {
 

@@ -12,7 +12,7 @@
 #include <unordered_map>
 #include <vector>
 
-#include "core/block_metadata.h"
+#include "core/occupancy/block_metadata.h"
 
 namespace sl {
 

@@ -13,7 +13,7 @@
 #endif
 
 #include "cache/brick.h"
-#include "core/config.h"
+#include "core/util/config.h"
 
 namespace sl {
 

@@ -6,9 +6,9 @@
 #include <cstring>
 #include <functional>
 
-#include "core/culling.h"
-#include "core/error.h"
-#include "core/printable.h"
+#include "core/occupancy/culling.h"
+#include "core/util/error.h"
+#include "core/util/printable.h"
 
 namespace sl {
 

@@ -18,10 +18,10 @@
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
 #include "cache/volume_source.h"
-#include "core/block_metadata.h"
-#include "core/frame_pipeline.h"
-#include "core/occupancy_tree.h"
-#include "core/sample_clip.h"
+#include "core/occupancy/block_metadata.h"
+#include "core/frame/pipeline.h"
+#include "core/occupancy/occupancy_tree.h"
+#include "core/cast/sample_clip.h"
 
 namespace sl {
 
@@ -78,7 +78,7 @@ class OutOfCoreRenderer {
   std::size_t failed_bricks() const { return loader_.failed_count(); }
   void wait_for_loads() { loader_.wait_idle(); }
   const CastDevice& device() const { return *device_; }
-  // Distributed (DESIGN.md §11): cast only the samples of this rank's region (core/sample_clip.h);
+  // Distributed (DESIGN.md §11): cast only the samples of this rank's region (core/cast/sample_clip.h);
   // the tree, metadata and bricks then grow only where those samples are. Default: every sample.
   void set_sample_clip(const SampleClip& clip) { clip_ = clip; }
   // Builds the SparseLeap lists instead of build_segment_lists (e.g. the GL builder, `--lists gl`).

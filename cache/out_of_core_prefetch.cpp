@@ -6,7 +6,7 @@
 #include <algorithm>
 
 #include "cache/out_of_core.h"
-#include "core/config.h"
+#include "core/util/config.h"
 
 namespace sl {
 

@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "cache/brick.h"
-#include "core/config.h"
+#include "core/util/config.h"
 
 namespace sl {
 

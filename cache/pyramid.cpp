@@ -7,9 +7,9 @@
 #include <string>
 #include <unordered_map>
 
-#include "core/config.h"
-#include "core/parallel.h"
-#include "core/voxel_dispatch.h"
+#include "core/util/config.h"
+#include "core/util/parallel.h"
+#include "core/scene/voxel_dispatch.h"
 
 namespace sl {
 namespace {

@@ -10,8 +10,8 @@
 #include <vector>
 
 #include "cache/brick.h"
-#include "core/math.h"
-#include "core/volume.h"
+#include "core/util/math.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

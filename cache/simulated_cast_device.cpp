@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cstring>
 
-#include "core/config.h"
+#include "core/util/config.h"
 
 namespace sl {
 

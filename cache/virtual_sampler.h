@@ -15,9 +15,9 @@
 #include "cache/brick_cache.h"
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
-#include "core/config.h"
-#include "core/gradient.h"
-#include "core/raycast.h"
+#include "core/util/config.h"
+#include "core/recon/gradient.h"
+#include "core/cast/raycast.h"
 
 namespace sl {
 

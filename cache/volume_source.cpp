@@ -3,9 +3,9 @@
 #include <algorithm>
 
 #include "cache/pyramid.h"
-#include "core/config.h"
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace sl {
 namespace {

@@ -11,8 +11,8 @@
 
 #include "cache/brick.h"
 #include "cache/pyramid.h"
-#include "core/block_metadata.h"
-#include "core/volume.h"
+#include "core/occupancy/block_metadata.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

@@ -3,9 +3,9 @@
 #include <cstddef>
 #include <vector>
 
-#include "core/block_metadata.h"
-#include "core/parallel.h"
-#include "core/voxel_dispatch.h"
+#include "core/occupancy/block_metadata.h"
+#include "core/util/parallel.h"
+#include "core/scene/voxel_dispatch.h"
 
 namespace sl {
 

@@ -2,14 +2,14 @@
 // of its culling blocks can contribute under the current transfer function, iso value and labels —
 // the non-empty blocks the renderer will sample. Read from that level's metadata (a coarse block's
 // range covers every finer voxel below it, DESIGN.md §4, so a region counted empty is empty at every
-// level). The k-d split (core/kd_regions.h) balances it; it is recomputed when the culling inputs
+// level). The k-d split (core/frame/kd_regions.h) balances it; it is recomputed when the culling inputs
 // change (their cull_key).
 #pragma once
 
 #include "cache/brick.h"
 #include "cache/volume_source.h"
-#include "core/culling.h"
-#include "core/kd_regions.h"
+#include "core/occupancy/culling.h"
+#include "core/frame/kd_regions.h"
 
 namespace sl {
 

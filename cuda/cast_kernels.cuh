@@ -1,4 +1,4 @@
-// The ray-casting kernels: one thread per pixel running detail::cast_pixel (core/cast_pixel.h), the
+// The ray-casting kernels: one thread per pixel running detail::cast_pixel (core/cast/cast_pixel.h), the
 // very function the CPU frame loop runs, over any sampler. One kernel per method family, so the
 // method switch folds away and cuobjdump lists a kernel per method (tests/cuda/kernels_test.cpp):
 //   sl_cast_none           no skipping
@@ -13,10 +13,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "core/cast_pixel.h"
-#include "core/frame.h"
-#include "core/octree_skip.h"
-#include "core/stats.h"
+#include "core/cast/cast_pixel.h"
+#include "core/frame/frame.h"
+#include "core/occupancy/octree_skip.h"
+#include "core/frame/stats.h"
 #include "cuda/cuda_util.h"
 
 namespace sl::cuda {

@@ -13,7 +13,7 @@
 #include <vector>
 
 #include "cache/cast_device.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "cuda/cast_kernels.cuh"
 #include "cuda/cuda_renderer.h"
 #include "cuda/device_samplers.cuh"

@@ -1,5 +1,5 @@
 // Thin CUDA layer for in-core rendering: memory, launches, copies. The per-pixel logic is
-// core/cast_pixel.h over core/raycast.h — the same code the CPU backend runs and the CPU tests prove
+// core/cast/cast_pixel.h over core/cast/raycast.h — the same code the CPU backend runs and the CPU tests prove
 // (DESIGN.md §1, STYLE.md #2). The skipping structures (segment lists, octree) are the ones the CPU
 // renderer built for the frame, uploaded here.
 #include "cuda/cuda_renderer.h"
@@ -9,8 +9,8 @@
 #include <cstdint>
 #include <memory>
 
-#include "core/error.h"
-#include "core/stats.h"
+#include "core/util/error.h"
+#include "core/frame/stats.h"
 #include "cuda/cast_kernels.cuh"
 #include "cuda/device_samplers.cuh"
 

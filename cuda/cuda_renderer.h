@@ -5,7 +5,7 @@
 #include <string>
 
 #include "cache/cast_device.h"
-#include "core/in_core_renderer.h"
+#include "core/frame/in_core_renderer.h"
 
 namespace sl::cuda {
 

@@ -6,10 +6,10 @@
 #include <cstdint>
 
 #include "cache/virtual_sampler.h"
-#include "core/gradient.h"
-#include "core/voxel_dispatch.h"
-#include "core/raycast.h"
-#include "core/sampling.h"
+#include "core/recon/gradient.h"
+#include "core/scene/voxel_dispatch.h"
+#include "core/cast/raycast.h"
+#include "core/recon/sampling.h"
 
 namespace sl::cuda {
 

@@ -14,7 +14,7 @@
 #include <memory>
 #include <string>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 struct GLFWwindow;
 

@@ -4,8 +4,8 @@
 #include <cstring>
 #include <numeric>
 
-#include "core/parallel.h"
-#include "core/stats.h"
+#include "core/util/parallel.h"
+#include "core/frame/stats.h"
 #include "gl/gl_program.h"
 
 namespace sl {

@@ -1,9 +1,9 @@
 // The OpenGL builder of ray segment lists (paper §7 and §9, Alg. 4-5; DESIGN.md §7): one rectangle
 // per visibility-order entry, in order — the box's conservative_screen_rect, the very rectangle the CPU
 // tile builder uses — whose fragment shader rebuilds the pixel's ray (RayGenerator::ray), runs the
-// slab test of core/ray.h and turns a hit into the entry's event. Two ways to apply the events:
+// slab test of core/util/ray.h and turns a hit into the entry's event. Two ways to apply the events:
 //  - interlock: GL_ARB_fragment_shader_interlock (pixel_interlock_ordered) or the NV variant; the
-//    fragment applies add_event (a GLSL mirror of core/segment_list.h) to the pixel's list in an SSBO
+//    fragment applies add_event (a GLSL mirror of core/lists/segment_list.h) to the pixel's list in an SSBO
 //    inside the ordered critical section;
 //  - fallback (no interlock, e.g. Mesa llvmpipe): fragments append (entry index, t) records to
 //    per-pixel linked lists in a global pool; a compute pass sorts each pixel's records by entry index
@@ -24,11 +24,11 @@
 #include <span>
 #include <vector>
 
-#include "core/camera.h"
-#include "core/occupancy_geometry.h"
-#include "core/segment_list.h"
-#include "core/segment_list_builder.h"
-#include "core/visibility_order.h"
+#include "core/scene/camera.h"
+#include "core/occupancy/occupancy_geometry.h"
+#include "core/lists/segment_list.h"
+#include "core/lists/segment_list_builder.h"
+#include "core/lists/visibility_order.h"
 #include "gl/gl_context.h"
 
 namespace sl {

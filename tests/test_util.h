@@ -8,7 +8,7 @@
 #include <filesystem>
 #include <string>
 
-#include "core/image.h"
+#include "core/util/image.h"
 
 namespace sl::test {
 

@@ -5,9 +5,9 @@
 #include <cstdint>
 #include <optional>
 
-#include "core/camera.h"
-#include "core/labels.h"
-#include "core/volume.h"
+#include "core/scene/camera.h"
+#include "core/scene/labels.h"
+#include "core/scene/volume.h"
 
 namespace sl::viewer {
 

@@ -3,7 +3,7 @@
 // clamped short of the poles so the view never flips over the up axis.
 #pragma once
 
-#include "core/camera.h"
+#include "core/scene/camera.h"
 
 namespace sl::viewer {
 

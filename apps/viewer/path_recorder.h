@@ -1,10 +1,10 @@
 // Recording the viewer's camera as a keyframe path that `sparseleap bench --path` replays
-// (core/camera_path.h format): a keyframe each time the user presses K, or on a timer.
+// (core/scene/camera_path.h format): a keyframe each time the user presses K, or on a timer.
 #pragma once
 
 #include <string>
 
-#include "core/camera_path.h"
+#include "core/scene/camera_path.h"
 
 namespace sl::viewer {
 

@@ -14,7 +14,7 @@
 #include <thread>
 #include <vector>
 
-#include "core/frame.h"
+#include "core/frame/frame.h"
 
 namespace sl::viewer {
 

@@ -5,8 +5,8 @@
 #include <cstdio>
 #include <filesystem>
 
-#include "core/atomic_file.h"
-#include "core/error.h"
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
 
 namespace sl::viewer {
 

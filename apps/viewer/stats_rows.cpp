@@ -15,7 +15,7 @@ std::string fmt(const char* f, double v) {
 
 std::string ms(double v) { return fmt("%.1f", v); }
 
-// One line per field: the overlay shows what core/stats.h counts (STYLE.md #10).
+// One line per field: the overlay shows what core/frame/stats.h counts (STYLE.md #10).
 void add_rows(std::vector<StatRow>& r, const Stats& s) {
   r.push_back({"frame ms", ms(s.time_ms.total)});
   r.push_back({"size", std::to_string(s.width) + "x" + std::to_string(s.height)});

@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "core/stats.h"
+#include "core/frame/stats.h"
 
 namespace sl::viewer {
 

@@ -3,8 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
-#include "core/atomic_file.h"
-#include "core/error.h"
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
 
 namespace sl::viewer {
 

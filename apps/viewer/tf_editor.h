@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "core/transfer_function.h"
-#include "core/volume.h"
+#include "core/scene/transfer_function.h"
+#include "core/scene/volume.h"
 
 namespace sl::viewer {
 

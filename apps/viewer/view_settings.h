@@ -6,7 +6,7 @@
 
 #include <type_traits>
 
-#include "core/frame.h"
+#include "core/frame/frame.h"
 
 namespace sl::viewer {
 

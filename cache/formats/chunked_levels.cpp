@@ -3,8 +3,8 @@
 #include <cstring>
 
 #include "cache/pyramid.h"
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace sl {
 

@@ -14,7 +14,7 @@
 #include <fstream>
 #include <vector>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

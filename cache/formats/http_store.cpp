@@ -12,8 +12,8 @@
 #include <thread>
 #include <vector>
 
-#include "core/config.h"
-#include "core/error.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

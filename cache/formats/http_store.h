@@ -7,7 +7,7 @@
 // object does not exist (a chunk never written: the fill value). 401/403 and other 4xx = an error naming
 // the URL. 5xx, 408/429, timeouts, dropped connections and truncated bodies are retried inside the
 // client with exponential backoff; if every try fails, sl::TransientError (the brick loader's retry and
-// out-of-core fault path takes it from there, core/error.h).
+// out-of-core fault path takes it from there, core/util/error.h).
 #pragma once
 
 #include <atomic>

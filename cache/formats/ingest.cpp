@@ -20,9 +20,9 @@
 #include "cache/pyramid.h"
 #include "cache/formats/tiff_stack.h"
 #include "cache/formats/zarr_writer.h"
-#include "core/error.h"
-#include "core/parallel.h"
-#include "core/voxel_dispatch.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
+#include "core/scene/voxel_dispatch.h"
 
 namespace sl {
 namespace {

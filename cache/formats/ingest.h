@@ -19,7 +19,7 @@
 
 #include "cache/formats/slab_reader.h"
 #include "cache/formats/zarr_codec.h"
-#include "core/volume.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

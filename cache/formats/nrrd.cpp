@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "cache/formats/nrrd_header.h"
-#include "core/atomic_file.h"
-#include "core/error.h"
+#include "core/util/atomic_file.h"
+#include "core/util/error.h"
 
 // NRRD data: reading the payload described by a parsed header (nrrd_header.cpp), and writing.
 namespace sl {

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "core/volume.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

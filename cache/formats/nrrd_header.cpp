@@ -11,7 +11,7 @@
 #include <vector>
 
 #include "cache/formats/nrrd.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace nrrd_detail {

@@ -6,7 +6,7 @@
 #include <memory>
 #include <string>
 
-#include "core/volume.h"
+#include "core/scene/volume.h"
 
 namespace sl::nrrd_detail {
 

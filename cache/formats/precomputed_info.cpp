@@ -3,7 +3,7 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl::precomputed {
 namespace {

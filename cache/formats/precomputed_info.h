@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "core/math.h"
-#include "core/volume.h"
+#include "core/util/math.h"
+#include "core/scene/volume.h"
 
 namespace sl::precomputed {
 

@@ -8,7 +8,7 @@
 #include "cache/formats/store_url.h"
 #include "cache/formats/zarr_source.h"
 #include "cache/pyramid.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace precomputed {

@@ -4,7 +4,7 @@
 
 #include <cstddef>
 
-#include "core/volume.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

@@ -8,7 +8,7 @@
 
 #include "cache/formats/disk_cache.h"
 #include "cache/formats/http_store.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

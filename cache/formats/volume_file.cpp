@@ -5,7 +5,7 @@
 #include "cache/formats/ingest.h"
 #include "cache/formats/nifti.h"
 #include "cache/formats/nrrd.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 

@@ -5,7 +5,7 @@
 
 #include <string>
 
-#include "core/volume.h"
+#include "core/scene/volume.h"
 
 namespace sl {
 

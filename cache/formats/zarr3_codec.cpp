@@ -9,7 +9,7 @@
 #include <stdexcept>
 
 #include "cache/formats/zarr_array.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl::zarr::v3 {
 namespace {
@@ -309,7 +309,7 @@ std::optional<std::vector<std::byte>> read_chunk(const ArrayCodecs& a, const Byt
       if (!raw) return std::nullopt;
       return to_voxels(a.stored, decode_chain(a.chain, std::move(*raw), a.grid, elem));
     } catch (const TransientError& e) {
-      throw TransientError("", "chunk '" + key + "': " + e.what());  // still retriable (core/error.h)
+      throw TransientError("", "chunk '" + key + "': " + e.what());  // still retriable (core/util/error.h)
     } catch (const std::runtime_error& e) {
       fail("chunk '" + key + "': " + e.what());
     }

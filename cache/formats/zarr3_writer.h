@@ -11,8 +11,8 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "cache/formats/zarr_codec.h"
-#include "core/math.h"
-#include "core/volume.h"
+#include "core/util/math.h"
+#include "core/scene/volume.h"
 
 namespace sl::zarr::v3 {
 

@@ -7,8 +7,8 @@
 #include <limits>
 
 #include "cache/formats/zarr3_codec.h"
-#include "core/error.h"
-#include "core/voxel_dispatch.h"
+#include "core/util/error.h"
+#include "core/scene/voxel_dispatch.h"
 
 namespace sl::zarr {
 namespace {
@@ -104,7 +104,7 @@ ChunkCache::Chunk ArrayReader::chunk(int level, ivec3 c) const {
   try {
     raw = m_.bytes->read(object);
   } catch (const TransientError& e) {
-    throw TransientError(store_, where() + e.what());  // the brick loader retries it (core/error.h)
+    throw TransientError(store_, where() + e.what());  // the brick loader retries it (core/util/error.h)
   } catch (const std::runtime_error& e) {
     throw InputError(store_, where() + e.what());
   }

@@ -9,9 +9,9 @@
 #include "cache/formats/store_url.h"
 #include "cache/formats/zarr3_codec.h"
 #include "cache/formats/zarr3_meta.h"
-#include "core/config.h"
-#include "core/error.h"
-#include "core/json_util.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
+#include "core/util/json_util.h"
 
 namespace sl::zarr {
 namespace {

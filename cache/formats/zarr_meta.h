@@ -21,8 +21,8 @@
 
 #include "cache/formats/byte_store.h"
 #include "cache/formats/zarr_codec.h"
-#include "core/math.h"
-#include "core/volume.h"
+#include "core/util/math.h"
+#include "core/scene/volume.h"
 
 namespace sl::zarr {
 

@@ -6,7 +6,7 @@
 
 #include "cache/formats/chunked_levels.h"
 #include "cache/pyramid.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

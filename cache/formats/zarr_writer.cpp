@@ -8,8 +8,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cache/formats/zarr3_writer.h"
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace sl::zarr {
 namespace {

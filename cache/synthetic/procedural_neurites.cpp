@@ -8,11 +8,11 @@
 #include <limits>
 #include <vector>
 
-#include "cache/synthetic/neurite_tubes.h"
+#include "core/scene/neurite_tubes.h"
 #include "cache/pyramid.h"
-#include "core/config.h"
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/util/config.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace sl {
 namespace {

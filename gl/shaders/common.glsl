@@ -1,5 +1,5 @@
 // Shared declarations of the GL segment-list builder: the std430 mirrors of the C++ structs, the
-// per-frame uniforms, the pixel's ray (RayGenerator::ray) and the slab test (intersect in core/ray.h).
+// per-frame uniforms, the pixel's ray (RayGenerator::ray) and the slab test (intersect in core/util/ray.h).
 // The ray and the slab test repeat the C++ float operations one for one and in the same order, and
 // `precise` forbids the compiler to contract or reassociate them (no fma, no a*rcp(b) for a/b), so a
 // pixel's hit decision and its t equal the CPU builder's bit for bit (DESIGN.md §7).
@@ -42,7 +42,7 @@ const uint SL_INVALID = 3u;
 const uint SL_FACE_FRONT = 0u;
 const uint SL_NIL = 0xFFFFFFFFu;
 
-// RayGenerator (core/camera.h), as uploaded: the exact float values of the C++ struct.
+// RayGenerator (core/scene/camera.h), as uploaded: the exact float values of the C++ struct.
 uniform vec3 u_eye;
 uniform vec3 u_forward;
 uniform vec3 u_right;
@@ -87,7 +87,7 @@ SlRay sl_pixel_ray(int x, int y) {
   return r;
 }
 
-// sl::intersect (core/ray.h), the slab test every builder uses. Returns (t0, t1); a miss has
+// sl::intersect (core/util/ray.h), the slab test every builder uses. Returns (t0, t1); a miss has
 // !(t0 < t1). An axis with dir == 0 hits only if the origin lies within the slab there.
 vec2 sl_intersect(SlRay r, vec3 lo, vec3 hi) {
   precise float t0 = uintBitsToFloat(0xFF7FFFFFu);  // -3.402823466e+38f

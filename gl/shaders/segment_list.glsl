@@ -1,4 +1,4 @@
-// GLSL mirror of core/segment_list.h (Alg. 5 merge rules, t_seen guard, overflow), line by line. Any
+// GLSL mirror of core/lists/segment_list.h (Alg. 5 merge rules, t_seen guard, overflow), line by line. Any
 // change there must be made here too; the GL tests compare both builders pixel for pixel.
 // The lists of the current band live in sl_events: list p holds sl_events[p * capacity ...].
 // The interlock program defines SL_EVENTS_QUALIFIER as `coherent`: one fragment's writes must be seen

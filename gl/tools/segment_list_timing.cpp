@@ -6,11 +6,11 @@
 #include <cstdlib>
 #include <cstring>
 
-#include "core/occupancy_geometry.h"
-#include "core/occupancy_tree.h"
-#include "core/segment_list_builder.h"
-#include "core/stats.h"
-#include "core/visibility_order.h"
+#include "core/occupancy/occupancy_geometry.h"
+#include "core/occupancy/occupancy_tree.h"
+#include "core/lists/segment_list_builder.h"
+#include "core/frame/stats.h"
+#include "core/lists/visibility_order.h"
 #include "gl/gl_segment_list_builder.h"
 
 int main(int argc, char** argv) {

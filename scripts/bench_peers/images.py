@@ -1,7 +1,7 @@
 """Images for bench-peers: sparseleap's EXR, PSNR in linear colour, sRGB encoding, PNG output.
 
 Debian 12 has no Python OpenEXR binding (python3-openexr does not exist; OpenImageIO's would pull in
-about a hundred packages), so read_exr() reads the one layout sparseleap writes (core/image.cpp):
+about a hundred packages), so read_exr() reads the one layout sparseleap writes (core/util/image.cpp):
 scan-line, ZIP compression (16 lines per chunk), 32-bit float channels, no tiles or multi-part.
 Anything else is refused with the reason, never misread.
 """
@@ -75,7 +75,7 @@ def read_exr(path):
 
 
 def linear_to_srgb(x):
-    """The sRGB encoding sparseleap's PNGs use (core/image.cpp), on [0, 1] clamped values."""
+    """The sRGB encoding sparseleap's PNGs use (core/util/image.cpp), on [0, 1] clamped values."""
     x = np.clip(x, 0.0, 1.0)
     return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
 

@@ -46,7 +46,7 @@ with --ert (0.99).
 
 Shading (--shade, with --ambient/--diffuse/--specular/--shininess as given to `sparseleap --shade`):
 ShadeOn() and the same Ka, Kd, Ks and specular power on the volume property. sparseleap's model
-(core/shading.h, applied in core/raycast.h take_sample to the straight transfer-function colour, then
+(core/cast/shading.h, applied in core/cast/raycast.h take_sample to the straight transfer-function colour, then
 premultiplied by the sample's opacity) is rgb * (Ka + Kd |n.l|) + Ks |n.l|^P, white, with a headlight
 (l = the ray's direction), two-sided, n = the central difference of the trilinear reconstruction one
 voxel apart, normalized; a sample whose gradient is ~0 keeps its unlit rgb. How the fixed-point mapper
@@ -241,7 +241,7 @@ class VtkScene:
         """Observer of VolumeMapperRenderStartEvent, sent by the mapper each frame after it rebuilt its
         shading tables (PerVolumeInitialization) and before the threads cast rays: the zero normal's
         diffuse entries become 1.0 (its specular ones are 0), so a sample whose eight corners all have a
-        zero gradient keeps its unlit colour, as sparseleap's does (core/shading.h), instead of VTK's
+        zero gradient keeps its unlit colour, as sparseleap's does (core/cast/shading.h), instead of VTK's
         ambient-only Ka. See "Shading" in the module docstring."""
         n = 3 * self.directions
         table = np.ctypeslib.as_array((ctypes.c_uint16 * n).from_address(

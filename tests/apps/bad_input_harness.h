@@ -25,8 +25,8 @@
 #include <vector>
 
 #include "cache/formats/nrrd.h"
-#include "cache/synthetic/generate.h"
-#include "core/volume.h"
+#include "core/scene/generate.h"
+#include "core/scene/volume.h"
 #include "tests/test_util.h"
 
 namespace sl::bad_input {

@@ -62,7 +62,7 @@ std::vector<Case> output_cases() {
 
 TEST(BadInputCorpus, Output) { run_corpus(output_cases()); }
 
-// Outputs that are devices are streams (core/atomic_file.h): /dev/null takes the images and the stats
+// Outputs that are devices are streams (core/util/atomic_file.h): /dev/null takes the images and the stats
 // and stays /dev/null; nothing appears beside it.
 TEST(OutputStreams, DevNullTakesEveryOutput) {
   const fs::path dir = test::scratch_dir();

@@ -146,7 +146,7 @@ TEST(LabelStore, CorruptChunkWithoutMaxLabelRendersOutOfCore) {
 }
 
 // The out-of-core warning for a brick that failed to load escapes control bytes as the error line does
-// (core/printable.h), here from the store's name, so it stays one line and cannot drive the terminal.
+// (core/util/printable.h), here from the store's name, so it stays one line and cannot drive the terminal.
 TEST(OutOfCoreWarning, ControlBytesInTheReasonAreEscaped) {
   const fs::path dir = test::scratch_dir();
   GeneratedVolume g = generate_volume("neurites", ivec3(32), 1);

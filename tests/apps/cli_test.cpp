@@ -8,9 +8,9 @@
 #include <fstream>
 #include <limits>
 
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/formats/nrrd.h"
-#include "core/image.h"
+#include "core/util/image.h"
 #include "tests/test_util.h"
 
 namespace sl {
@@ -346,7 +346,7 @@ TEST(Cli, NiftiFromMricronRendersAndReportsItsHeader) {
 namespace sl {
 namespace {
 
-// --fine-cell changes how many samples SparseLeap takes, never the image (core/fine_occupancy.h).
+// --fine-cell changes how many samples SparseLeap takes, never the image (core/occupancy/fine_occupancy.h).
 TEST(Cli, FineCellsKeepTheImageAndSkipSamples) {
   const auto dir = test::scratch_dir();
   std::vector<Image> frames;

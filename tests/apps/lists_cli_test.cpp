@@ -7,7 +7,7 @@
 #include <cstring>
 #include <string>
 
-#include "core/image.h"
+#include "core/util/image.h"
 #include "tests/test_util.h"
 
 namespace sl {

@@ -6,7 +6,7 @@
 #include <filesystem>
 
 #include "cache/formats/nrrd.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "tests/cache/formats/zarr_test_util.h"
 #include "tests/test_util.h"
 

@@ -5,9 +5,9 @@
 
 #include <filesystem>
 
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/formats/nrrd.h"
-#include "core/image.h"
+#include "core/util/image.h"
 #include "tests/test_util.h"
 
 namespace sl {

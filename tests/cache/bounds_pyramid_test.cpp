@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "cache/pyramid.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "cache/volume_source.h"
-#include "core/rng.h"
+#include "core/util/rng.h"
 
 namespace sl {
 namespace {

@@ -11,8 +11,8 @@
 
 #include "cache/page_table.h"
 #include "cache/volume_source.h"
-#include "core/error.h"
-#include "core/sampling.h"
+#include "core/util/error.h"
+#include "core/recon/sampling.h"
 
 namespace sl {
 namespace {

@@ -14,8 +14,8 @@
 #include <rapidcheck/gtest.h>
 
 #include "cache/fault_injection.h"
-#include "cache/synthetic/generate.h"
-#include "core/error.h"
+#include "core/scene/generate.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

@@ -6,8 +6,8 @@
 #include <thread>
 #include <vector>
 
-#include "cache/synthetic/generate.h"
-#include "core/error.h"
+#include "core/scene/generate.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

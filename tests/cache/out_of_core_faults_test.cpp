@@ -9,8 +9,8 @@
 
 #include "cache/fault_injection.h"
 #include "cache/out_of_core.h"
-#include "cache/synthetic/generate.h"
-#include "core/in_core_renderer.h"
+#include "core/scene/generate.h"
+#include "core/frame/in_core_renderer.h"
 
 namespace sl {
 namespace {

@@ -13,7 +13,7 @@
 
 #include "cache/out_of_core.h"
 #include "cache/synthetic/procedural_neurites.h"
-#include "core/camera_path.h"
+#include "core/scene/camera_path.h"
 #include "tests/test_util.h"
 
 namespace sl {

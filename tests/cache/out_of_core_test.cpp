@@ -6,12 +6,12 @@
 #include <cmath>
 #include <memory>
 
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/out_of_core.h"
 #include "cache/synthetic/procedural_neurites.h"
-#include "core/block_metadata.h"
-#include "core/in_core_renderer.h"
-#include "core/error.h"
+#include "core/occupancy/block_metadata.h"
+#include "core/frame/in_core_renderer.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 
 namespace sl {

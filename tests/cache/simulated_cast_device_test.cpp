@@ -9,10 +9,10 @@
 #include <cstring>
 #include <memory>
 
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/out_of_core.h"
 #include "cache/simulated_cast_device.h"
-#include "core/in_core_renderer.h"
+#include "core/frame/in_core_renderer.h"
 #include "tests/test_util.h"
 
 namespace sl {

@@ -7,9 +7,9 @@
 #include <memory>
 #include <vector>
 
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

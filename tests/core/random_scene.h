@@ -6,10 +6,10 @@
 #include <algorithm>
 #include <cstdint>
 
-#include "core/labels.h"
-#include "core/rng.h"
-#include "core/transfer_function.h"
-#include "core/volume.h"
+#include "core/scene/labels.h"
+#include "core/util/rng.h"
+#include "core/scene/transfer_function.h"
+#include "core/scene/volume.h"
 
 namespace sl::test_scene {
 

@@ -3,8 +3,8 @@
 // the CPU renderer — the entry point the kernels use is the CPU's, bit for bit.
 #include <gtest/gtest.h>
 
-#include "cache/synthetic/generate.h"
-#include "core/in_core_renderer.h"
+#include "core/scene/generate.h"
+#include "core/frame/in_core_renderer.h"
 #include "tests/cuda/shared_headers_compile.cu"
 
 namespace sl {

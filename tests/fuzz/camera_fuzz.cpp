@@ -1,8 +1,8 @@
-// Camera JSON (core/camera.cpp): parsed; what parses is written back and must read back the same
+// Camera JSON (core/scene/camera.cpp): parsed; what parses is written back and must read back the same
 // (the view height only where it is used), and a ray generator is made from it as render does
 // (refusing a degenerate view is an InputError).
-#include "core/camera.h"
-#include "core/error.h"
+#include "core/scene/camera.h"
+#include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

@@ -1,7 +1,7 @@
-// Camera-path JSON (core/camera_path.cpp), as `bench --path` reads it and `view --record-path`
+// Camera-path JSON (core/scene/camera_path.cpp), as `bench --path` reads it and `view --record-path`
 // writes it: parsed, written back and read back to the same keyframes, and interpolated.
-#include "core/camera_path.h"
-#include "core/error.h"
+#include "core/scene/camera_path.h"
+#include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

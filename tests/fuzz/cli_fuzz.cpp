@@ -1,4 +1,4 @@
-// The command line's value parsers (apps/render_options.cpp through CLI11, core/labels.cpp's
+// The command line's value parsers (apps/render_options.cpp through CLI11, core/scene/labels.cpp's
 // --enable, the procedural volume spec): the input is argv, one argument a line; the first picks
 // render, bench or view. Parsed as main() does, checked as every command does before loading data.
 #include <cstdint>
@@ -9,8 +9,8 @@
 
 #include "apps/render_options.h"
 #include "cache/synthetic/procedural_neurites.h"
-#include "core/error.h"
-#include "core/labels.h"
+#include "core/util/error.h"
+#include "core/scene/labels.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "cache/formats/volume_file.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 // Defines the target: the block that follows runs once per input, `input` holding its bytes. Whatever
 // escapes the block (an exception, an abort on a broken invariant, a sanitizer report) is a finding.

@@ -6,7 +6,7 @@
 
 #include "cache/formats/ingest.h"
 #include "cache/formats/nrrd.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

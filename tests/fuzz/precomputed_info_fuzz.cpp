@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "cache/formats/precomputed_source.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

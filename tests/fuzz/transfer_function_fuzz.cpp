@@ -1,10 +1,10 @@
-// Transfer-function JSON (core/transfer_function.cpp): parsed; what parses is written back and must
+// Transfer-function JSON (core/scene/transfer_function.cpp): parsed; what parses is written back and must
 // read back to the same points (the viewer saves what it loaded), and its tables are looked up.
 #include <cmath>
 #include <limits>
 
-#include "core/error.h"
-#include "core/transfer_function.h"
+#include "core/util/error.h"
+#include "core/scene/transfer_function.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

@@ -14,7 +14,7 @@
 #include <cstdlib>
 #include <optional>
 
-#include "core/segment_list_builder.h"
+#include "core/lists/segment_list_builder.h"
 #include "gl/gl_segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"
 

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-#include "core/segment_list_builder.h"
+#include "core/lists/segment_list_builder.h"
 #include "gl/gl_segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"
 

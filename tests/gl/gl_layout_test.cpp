@@ -1,7 +1,7 @@
 // What crosses between C++ and GLSL (STYLE.md #3): the std430 view of OccupancyBox, VisibilityEntry,
 // RayEvent and the fallback record matches the C++ structs byte for byte, read and written on the GL
 // side by the very declarations the builder compiles (gl/shaders/common.glsl, segment_list.glsl); and
-// the GLSL add_event (Alg. 5) mirrors core/segment_list.h on random event streams, including equal
+// the GLSL add_event (Alg. 5) mirrors core/lists/segment_list.h on random event streams, including equal
 // depths, out-of-order depths, the short-gap rule and overflow.
 #include <gtest/gtest.h>
 
@@ -9,7 +9,7 @@
 #include <random>
 #include <vector>
 
-#include "core/segment_list.h"
+#include "core/lists/segment_list.h"
 #include "gl/gl_program.h"
 #include "tests/gl/gl_test_util.h"
 

@@ -1,16 +1,16 @@
 // Images cast from GL-built lists equal those cast from CPU-built lists (what `--lists gl` will do).
-// The lists go through the CPU caster's own frame loop (core/cast_frame.h: cast_frame with a
+// The lists go through the CPU caster's own frame loop (core/frame/cast_tiles.h: cast_frame with a
 // SegmentListView, the loop InCoreRenderer runs), so the comparison is the renderer's, not a copy of it.
 #include <gtest/gtest.h>
 
 #include <cstring>
 
-#include "cache/synthetic/generate.h"
-#include "core/block_metadata.h"
-#include "core/cast_frame.h"
-#include "core/in_core_renderer.h"
-#include "core/culling.h"
-#include "core/segment_list_builder.h"
+#include "core/scene/generate.h"
+#include "core/occupancy/block_metadata.h"
+#include "core/frame/cast_tiles.h"
+#include "core/frame/in_core_renderer.h"
+#include "core/occupancy/culling.h"
+#include "core/lists/segment_list_builder.h"
 #include "gl/gl_segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"
 

@@ -5,9 +5,9 @@
 #include <cstring>
 #include <memory>
 
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/out_of_core.h"
-#include "core/in_core_renderer.h"
+#include "core/frame/in_core_renderer.h"
 #include "gl/gl_segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"
 

@@ -10,7 +10,7 @@
 #include <numeric>
 #include <random>
 
-#include "core/segment_list_builder.h"
+#include "core/lists/segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"
 
 namespace sl {

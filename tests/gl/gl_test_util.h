@@ -9,11 +9,11 @@
 #include <memory>
 #include <string>
 
-#include "core/camera.h"
-#include "core/occupancy_geometry.h"
-#include "core/occupancy_tree.h"
-#include "core/segment_list.h"
-#include "core/visibility_order.h"
+#include "core/scene/camera.h"
+#include "core/occupancy/occupancy_geometry.h"
+#include "core/occupancy/occupancy_tree.h"
+#include "core/lists/segment_list.h"
+#include "core/lists/visibility_order.h"
 #include "gl/gl_context.h"
 #include "tests/test_util.h"
 

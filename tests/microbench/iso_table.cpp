@@ -16,9 +16,9 @@
 #include <vector>
 
 #include "cache/formats/volume_file.h"
-#include "cache/synthetic/generate.h"
-#include "core/error.h"
-#include "core/in_core_renderer.h"
+#include "core/scene/generate.h"
+#include "core/util/error.h"
+#include "core/frame/in_core_renderer.h"
 
 namespace sl {
 namespace {

@@ -22,8 +22,8 @@
 //      512² view (no skipping, as method `none`): trilinear sample + TF classify + front-to-back
 //      composite, DVR. u8/u16 intensity (u16: the u8 data × 257, TF over 0..65535); _mask: label mask
 //      on (label fetch for samples with opacity > 0); _simd: CastParams::simd on, eight samples at a
-//      time (core/sample_batch.h; where the CPU has AVX2) from the volume's bricks
-//      (core/bricked_volume.h) with the frame's plans (the opacity-only table), as the renderer runs
+//      time (core/cast/sample_batch.h; where the CPU has AVX2) from the volume's bricks
+//      (core/cast/bricked_volume.h) with the frame's plans (the opacity-only table), as the renderer runs
 //      it; without it the scalar caster; virtual_u8:
 //      the out-of-core VirtualSampler (page table + brick cache, 32³ bricks, every brick of every
 //      level resident). Rays are walked
@@ -51,27 +51,27 @@
 #include <vector>
 
 #include "cache/brick_cache.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "cache/miss_buffer.h"
 #include "cache/page_table.h"
 #include "cache/virtual_sampler.h"
 #include "cache/volume_source.h"
-#include "core/block_metadata.h"
-#include "core/bricked_volume.h"
-#include "core/camera.h"
-#include "core/cast_pixel.h"
-#include "core/in_core_renderer.h"
-#include "core/culling.h"
-#include "core/labels.h"
-#include "core/occupancy_geometry.h"
-#include "core/occupancy_tree.h"
-#include "core/octree_skip.h"
-#include "core/parallel.h"
-#include "core/raycast.h"
-#include "core/segment_list.h"
-#include "core/segment_list_builder.h"
-#include "core/transfer_function.h"
-#include "core/visibility_order.h"
+#include "core/occupancy/block_metadata.h"
+#include "core/cast/bricked_volume.h"
+#include "core/scene/camera.h"
+#include "core/cast/cast_pixel.h"
+#include "core/frame/in_core_renderer.h"
+#include "core/occupancy/culling.h"
+#include "core/scene/labels.h"
+#include "core/occupancy/occupancy_geometry.h"
+#include "core/occupancy/occupancy_tree.h"
+#include "core/occupancy/octree_skip.h"
+#include "core/util/parallel.h"
+#include "core/cast/raycast.h"
+#include "core/lists/segment_list.h"
+#include "core/lists/segment_list_builder.h"
+#include "core/scene/transfer_function.h"
+#include "core/lists/visibility_order.h"
 
 namespace sl {
 namespace {
@@ -373,7 +373,7 @@ DenseGrid<T> grid_of(const Volume& v) {
 template <class Sampler>
 void march_rays(benchmark::State& state, const RayCaster<Sampler>& caster) {
   const BenchScene& s = scene();
-  // The batch's per-frame plans, as the renderer's tile loop makes them (core/cast_frame.h): its
+  // The batch's per-frame plans, as the renderer's tile loop makes them (core/frame/cast_tiles.h): its
   // inputs and the opacity-only table its gathers read.
   const BatchPlans<Sampler> plans(caster, nullptr);
   std::size_t next = 0;

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
-#include "core/image.h"
+#include "core/util/image.h"
 #include "tests/test_util.h"
 
 namespace sl {

@@ -3,7 +3,7 @@
 #include <gtest/gtest.h>
 
 #include "apps/viewer/orbit_controller.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 
 namespace sl::viewer {

@@ -7,7 +7,7 @@
 
 #include "apps/viewer/stats_rows.h"
 #include "cache/out_of_core.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 
 namespace sl::viewer {
 namespace {

@@ -5,7 +5,7 @@
 
 #include <filesystem>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 
 namespace sl::viewer {

@@ -14,9 +14,9 @@
 #include "apps/viewer/render_worker.h"
 #include "apps/viewer/stats_rows.h"
 #include "apps/viewer/view_settings.h"
-#include "core/error.h"
-#include "core/in_core_renderer.h"
-#include "cache/synthetic/generate.h"
+#include "core/util/error.h"
+#include "core/frame/in_core_renderer.h"
+#include "core/scene/generate.h"
 
 namespace sl::viewer {
 namespace {
@@ -218,7 +218,7 @@ TEST(DisplayImage, PremultipliedOverBlackSrgbEncodedOpaque) {
   EXPECT_EQ(px[7], 255);
 }
 
-// The display bytes are the PNG's (core/image.cpp write_png), so a full-resolution frame on screen is the
+// The display bytes are the PNG's (core/util/image.cpp write_png), so a full-resolution frame on screen is the
 // image `render` writes: every 499th float in [0, 1] and the floats on either side of each code step.
 TEST(DisplayImage, EncodesEveryValueAsThePngDoes) {
   std::vector<float> values;

@@ -16,9 +16,9 @@
 #include <set>
 #include <string>
 
-#include "core/camera.h"
-#include "core/camera_path.h"
-#include "core/image.h"
+#include "core/scene/camera.h"
+#include "core/scene/camera_path.h"
+#include "core/util/image.h"
 #include "tests/test_util.h"
 
 namespace sl::test {

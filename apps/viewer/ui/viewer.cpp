@@ -26,9 +26,9 @@
 #include "apps/viewer/tf_editor.h"
 #include "apps/viewer/ui/panels.h"
 #include "apps/viewer/ui/window.h"
-#include "core/camera_path.h"
-#include "core/error.h"
-#include "core/parallel.h"
+#include "core/scene/camera_path.h"
+#include "core/util/error.h"
+#include "core/util/parallel.h"
 
 namespace sl::viewer {
 

@@ -12,7 +12,7 @@ struct ViewerOptions {
   float scale = 1.0f;          // render resolution relative to the canvas
   std::string progressive = "on";  // on: coarse frames while the view changes (apps/viewer/progressive.h)
   double frame_budget_ms = 80.0;   // the time a coarse frame may take
-  std::string path;            // scripted run: replay this camera path (core/camera_path.h)
+  std::string path;            // scripted run: replay this camera path (core/scene/camera_path.h)
   std::string screenshot;      // save the window after `frames` frames, then exit
   int frames = 0;              // scripted run: render this many views, then exit
   float spin = 0.0f;           // scripted run: degrees of orbit per frame (times moving views)

@@ -11,7 +11,7 @@
 
 #include "cache/formats/disk_cache.h"
 #include "cache/formats/http_store.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/http_test_server.h"
 #include "tests/test_util.h"
 

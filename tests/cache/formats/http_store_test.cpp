@@ -16,7 +16,7 @@
 #include "cache/formats/store_url.h"
 #include "cache/formats/zarr_meta.h"
 #include "cache/formats/zarr_source.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/cache/formats/zarr_bricks_match.h"
 #include "tests/cache/formats/zarr_test_util.h"
 #include "tests/http_test_server.h"

@@ -14,7 +14,7 @@
 
 #include <unistd.h>
 
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 
 namespace sl {

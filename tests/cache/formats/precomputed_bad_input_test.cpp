@@ -14,7 +14,7 @@
 
 #include "cache/formats/precomputed_shard.h"
 #include "cache/formats/precomputed_source.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/test_util.h"
 
 namespace sl {

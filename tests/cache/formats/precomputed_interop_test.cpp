@@ -15,7 +15,7 @@
 #include "cache/formats/counting_byte_store.h"
 #include "cache/formats/nrrd.h"
 #include "cache/formats/precomputed_source.h"
-#include "core/image.h"
+#include "core/util/image.h"
 #include "tests/cache/formats/precomputed_test_util.h"
 #include "tests/cache/formats/zarr_bricks_match.h"
 #include "tests/http_test_server.h"

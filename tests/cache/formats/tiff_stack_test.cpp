@@ -5,7 +5,7 @@
 #include <string>
 
 #include "cache/formats/volume_file.h"
-#include "core/error.h"
+#include "core/util/error.h"
 
 namespace sl {
 namespace {

@@ -15,7 +15,7 @@
 #include "cache/formats/ingest.h"
 #include "cache/formats/nrrd.h"
 #include "cache/formats/zarr_source.h"
-#include "core/error.h"
+#include "core/util/error.h"
 #include "tests/cache/formats/zarr_bricks_match.h"
 #include "tests/cache/formats/zarr_test_util.h"
 #include "tests/test_util.h"

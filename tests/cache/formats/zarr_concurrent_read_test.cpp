@@ -14,7 +14,7 @@
 #include "cache/formats/ingest.h"
 #include "cache/formats/nrrd.h"
 #include "cache/formats/zarr_source.h"
-#include "cache/synthetic/generate.h"
+#include "core/scene/generate.h"
 #include "tests/test_util.h"
 
 namespace sl {

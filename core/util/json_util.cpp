@@ -1,0 +1,88 @@
+#include "core/util/json_util.h"
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+#include "core/util/error.h"
+
+namespace sl {
+
+std::string json_too_large(std::uintmax_t bytes) {
+  if (bytes <= kMaxJsonBytes) return {};
+  return "is " + std::to_string((bytes + (1u << 20) - 1) >> 20) + " MiB; JSON files are read and parsed whole in memory, at most " +
+         std::to_string(kMaxJsonBytes >> 20) + " MiB";
+}
+
+bool read_json_bytes(std::istream& in, std::string& out) {
+  out.clear();
+  char buf[1 << 16];
+  while (in.read(buf, sizeof buf) || in.gcount() > 0) {
+    out.append(buf, std::size_t(in.gcount()));
+    if (out.size() > kMaxJsonBytes) return false;
+  }
+  return true;
+}
+
+std::string read_file_text(const std::string& path) {
+  // An ifstream opens a directory without complaint and then reads nothing ("malformed JSON").
+  std::error_code ec;
+  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
+  const std::uintmax_t size = std::filesystem::file_size(path, ec);
+  if (!ec) {
+    if (const std::string why = json_too_large(size); !why.empty()) throw InputError(path, why);
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(path, "cannot open file");
+  std::string text;
+  if (!read_json_bytes(in, text)) {
+    throw InputError(path, "holds more than " + std::to_string(kMaxJsonBytes >> 20) +
+                               " MiB; JSON files are read and parsed whole in memory, at most that");
+  }
+  if (in.bad()) throw InputError(path, "read error");
+  return text;
+}
+
+nlohmann::json parse_json(const std::string& text, const std::string& origin) {
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    // parse_error for syntax, out_of_range.406 for a number that overflows a double (1e999).
+    std::string what = e.what();
+    // nlohmann's message starts with "[json.exception.parse_error.101] "; keep what follows.
+    const auto pos = what.find("] ");
+    throw InputError(origin, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
+  }
+}
+
+float json_number(const nlohmann::json& j, const char* key, const std::string& origin) {
+  if (!j.contains(key)) throw InputError(origin, std::string("missing \"") + key + "\"");
+  const auto& v = j[key];
+  if (!v.is_number()) throw InputError(origin, std::string("\"") + key + "\" must be a number");
+  const double d = v.get<double>();
+  // Finite as the float it is kept as: 1e60 is a finite double but an infinite float (which JSON
+  // cannot write back; found by the camera_path fuzzer).
+  if (!std::isfinite(float(d))) throw InputError(origin, std::string("\"") + key + "\" is not finite as a float");
+  return float(d);
+}
+
+vec3 json_vec3(const nlohmann::json& j, const char* key, const std::string& origin, bool required) {
+  if (!j.contains(key)) {
+    if (required) throw InputError(origin, std::string("missing \"") + key + "\"");
+    return vec3(0.0f);
+  }
+  const auto& v = j[key];
+  if (!v.is_array() || v.size() != 3) {
+    throw InputError(origin, std::string("\"") + key + "\" must be an array of 3 numbers");
+  }
+  vec3 r;
+  for (int i = 0; i < 3; ++i) {
+    if (!v[i].is_number()) throw InputError(origin, std::string("\"") + key + "\" must hold numbers");
+    const double d = v[i].get<double>();
+    if (!std::isfinite(d)) throw InputError(origin, std::string("\"") + key + "\" is not finite");
+    r[i] = float(d);
+  }
+  return r;
+}
+
+}  // namespace sl
