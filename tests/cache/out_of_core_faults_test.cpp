@@ -45,10 +45,13 @@ FaultRun render_with_faults(const GeneratedVolume& g, const FaultSpec& spec, con
   for (; run.frames < 80 && !run.converged; ++run.frames) {
     run.frame = r.render(OutOfCoreScene{&tf, nullptr, cam}, s);
     EXPECT_EQ(run.frame.image.rgba.size(), std::size_t(s.width) * std::size_t(s.height));
-    EXPECT_EQ(run.frame.stats.cache.failed, r.failed_bricks());
+    // The loader's threads may fail a brick after the frame took its counts: never fewer than counted.
+    EXPECT_LE(run.frame.stats.cache.failed, r.failed_bricks());
     run.converged = r.converged();
     r.wait_for_loads();
   }
+  // A converged frame waited for nothing, so nothing failed after it.
+  if (run.converged) EXPECT_EQ(run.frame.stats.cache.failed, r.failed_bricks());
   run.err = testing::internal::GetCapturedStderr();
   for (int level = 0; level < run.layout.levels; ++level) {
     const ivec3 n = run.layout.bricks(level);
