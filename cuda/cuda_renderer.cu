@@ -1,6 +1,6 @@
 // Thin CUDA layer for in-core rendering: memory, launches, copies. The per-pixel logic is
 // core/cast/cast_pixel.h over core/cast/raycast.h — the same code the CPU backend runs and the CPU tests prove
-// (DESIGN.md §1, STYLE.md #2). The skipping structures (segment lists, octree) are the ones the CPU
+// (DESIGN.md "What the program is", STYLE.md #2). The skipping structures (segment lists, octree) are the ones the CPU
 // renderer built for the frame, uploaded here.
 #include "cuda/cuda_renderer.h"
 

@@ -1,4 +1,4 @@
-// OpenGL context (DESIGN.md §2, gl/): headless through EGL (Mesa's surfaceless platform, no display
+// OpenGL context (DESIGN.md "Layout", gl/): headless through EGL (Mesa's surfaceless platform, no display
 // server: CI and render farms) or windowed through GLFW (the viewer). Both end in the same
 // initialisation (function loading, version and extension checks, the GlInfo report), so everything
 // built on a GlContext (segment-list builder, overlay, display) runs one code path for both.

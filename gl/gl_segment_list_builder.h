@@ -1,4 +1,4 @@
-// The OpenGL builder of ray segment lists (paper §7 and §9, Alg. 4-5; DESIGN.md §7): one rectangle
+// The OpenGL builder of ray segment lists (paper §7 and §9, Alg. 4-5; DESIGN.md "Ray segment lists"): one rectangle
 // per visibility-order entry, in order — the box's conservative_screen_rect, the very rectangle the CPU
 // tile builder uses — whose fragment shader rebuilds the pixel's ray (RayGenerator::ray), runs the
 // slab test of core/util/ray.h and turns a hit into the entry's event. Two ways to apply the events:

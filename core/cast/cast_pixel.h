@@ -1,6 +1,6 @@
 // One pixel's ray cast, shared by the CPU frame loop (core/frame/cast_tiles.h) and the CUDA kernels
 // (cuda/): the method's spans on the global sample grid — Alg. 6 for segment lists, kd-restart for the
-// octree, everything for `none` (DESIGN.md §8). SL_HOST_DEVICE and free of std::atomic/std::function,
+// octree, everything for `none` (DESIGN.md "Ray casting"). SL_HOST_DEVICE and free of std::atomic/std::function,
 // so nvcc compiles it unchanged (STYLE.md #2: one copy of each algorithm).
 #pragma once
 

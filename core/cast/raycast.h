@@ -1,4 +1,4 @@
-// Per-ray integration along the global sample grid t_k = t_entry + k * dt (DESIGN.md §8). Every
+// Per-ray integration along the global sample grid t_k = t_entry + k * dt (DESIGN.md "Ray casting"). Every
 // skipping method calls march() on the index ranges it does not skip, so all methods take the very
 // same samples in the same order and produce the same image when culling is conservative.
 // Compiled by the CPU backend and, unchanged, by the CUDA kernels (SL_HOST_DEVICE).
@@ -21,7 +21,7 @@
 
 namespace sl {
 
-// Level of detail per sample (DESIGN.md §4): the coarsest level whose voxel footprint is no larger than
+// Level of detail per sample (DESIGN.md "Virtual memory"): the coarsest level whose voxel footprint is no larger than
 // the pixel footprint times a bias. One level (in-core data) or a pinned level makes it constant.
 struct LodParams {
   int levels = 1;              // levels available (1: level 0 only)
@@ -87,7 +87,7 @@ struct CastParams {
   bool label_mask = false; // a sample contributes only where its label is enabled
   bool simd = true;        // CPU: DVR samples eight at a time where AVX2 runs (core/cast/sample_batch.h); same image
   vec3 spacing{1.0f};
-  TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md §8)
+  TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md "Ray casting")
   Lighting lighting;       // dvr, labels: Blinn–Phong on the gradient (core/cast/shading.h) when enabled
   LabelSetView labels;
   LodParams lod;
@@ -386,7 +386,7 @@ struct RayCaster {
   }
 
  public:
-  // Front-to-back "over" of one premultiplied contribution at ray parameter t (DESIGN.md §8), which is
+  // Front-to-back "over" of one premultiplied contribution at ray parameter t (DESIGN.md "Ray casting"), which is
   // the depth once the opacity first reaches kDepthOpacity; false once early ray termination ends the
   // ray.
   SL_HOST_DEVICE SL_INLINE bool composite(const vec3& rgb, float a, RayAccum& acc, float t) const {

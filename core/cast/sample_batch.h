@@ -71,7 +71,7 @@ struct SampleSpan {
 // Appends to ks[queued ..] the samples of the ascending spans spans[s .. n) of one ray, from position k
 // of spans[s], whose voxel-mask bit is set, ascending, testing eight positions at a time; the set
 // positions of one span and then the next are queued alike, so the spans of a ray share its
-// batches (a short span no longer ends in a batch of its own). Stops once at least `want` are queued
+// batches (a short span does not end in a batch of its own). Stops once at least `want` are queued
 // (s, k: where to go on) or the spans are done (s == n). ks holds want + 8 ints (queued < want).
 int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued,
                         int want);

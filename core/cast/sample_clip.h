@@ -1,4 +1,4 @@
-// Sort-last distributed rendering (DESIGN.md §11): a rank casts the same rays on the same global
+// Sort-last distributed rendering (DESIGN.md "Beyond one machine"): a rank casts the same rays on the same global
 // per-ray sample grid t_k = t_entry + k·dt as a single process, and takes exactly the samples whose
 // positions fall in its region. Regions are half-open boxes [lo, hi) whose outer faces lie at
 // infinity, so every sample of the grid belongs to exactly one region of a k-d split; each rank

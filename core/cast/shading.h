@@ -1,4 +1,4 @@
-// Blinn–Phong lighting of volume samples (DESIGN.md §8 "Lighting"; issue 17): a headlight (the light
+// Blinn–Phong lighting of volume samples (DESIGN.md "Lighting"): a headlight (the light
 // along the view ray), the gradient of the reconstruction as the normal, and the parameters named and
 // defaulted as VTK's vtkVolumeProperty (ambient 0.1, diffuse 0.7, specular 0.2, specular power 10), so
 // images can be compared with VTK's shaded mapper. Plain data, SL_HOST_DEVICE: the kernels shade alike.

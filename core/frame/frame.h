@@ -57,7 +57,7 @@ void validate_lighting(const Lighting& lighting);
 
 // The per-frame ray-casting parameters, built here for every renderer and backend. `step`: the sample
 // distance in units of the smallest voxel spacing (the settings' step in core; out of core the step of
-// the frame's finest level, DESIGN.md §8); the transfer function's opacity is corrected for it.
+// the frame's finest level, DESIGN.md "Ray casting"); the transfer function's opacity is corrected for it.
 // `enabled`: the label mask in dvr/mip/iso (applied when `label_volume`), the shown set in labels mode.
 // `lod`: the level-of-detail rule (out of core; in core one level).
 CastParams make_cast_params(const RenderSettings& settings, const VolumeDesc& volume, const TransferFunction& tf,

@@ -36,7 +36,7 @@ struct InCoreRenderer::State {
   std::optional<BlockMetadataTable> fine_metadata;
   // The bits of the last two culling inputs: `bench` re-renders every view with its opacity scaled
   // (lists reused) and so alternates between two transfer functions; re-deriving the bits at each
-  // switch cost 2-17 ms of a 100 ms frame at 512².
+  // switch would cost a visible share of every frame.
   struct FineBits {
     FineOccupancy bits;
     std::uint64_t key = 0;
@@ -125,7 +125,8 @@ SkipInputs InCoreRenderer::prepare_skipping(const Scene& scene, const RenderSett
   cull.enabled = (p.label_mask || s.mode == RenderMode::Labels) ? labels : nullptr;
   std::vector<OccupancyClass> classes = classify_blocks(*S.metadata, cull);
   if (!S.tree || classes != S.classes) {
-    // A transfer-function or label change lands here: re-cull from cached metadata (DESIGN.md §5).
+    // A transfer-function or label change lands here: re-cull from cached metadata (DESIGN.md "Occupancy histogram
+    // tree").
     S.classes = std::move(classes);
     if (S.tree) {
       S.tree->reclassify(S.classes);

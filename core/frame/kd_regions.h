@@ -1,4 +1,4 @@
-// Sort-last distributed rendering (DESIGN.md §11): the volume's brick grid split by a k-d tree into
+// Sort-last distributed rendering (DESIGN.md "Beyond one machine"): the volume's brick grid split by a k-d tree into
 // one convex, brick-aligned region per rank, balanced on the estimated work, and the regions' front-
 // to-back order for a view (what IceT composites in, icetCompositeOrder). Pure logic, no MPI, so the
 // tests run it without mpirun.

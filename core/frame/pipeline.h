@@ -1,7 +1,7 @@
 // The frame pipeline every renderer and backend shares (STYLE.md #12): frame setup; the SparseLeap
 // skipping structures of an occupancy tree — occupancy geometry (paper Alg. 2) → visibility order
 // (Alg. 3) → segment lists (Alg. 4–5), or the bounding-geometry lists — each stage timed into Stats,
-// the lists reused while the view is unchanged (DESIGN.md §7); and the overlays and total time that
+// the lists reused while the view is unchanged (DESIGN.md "Ray segment lists"); and the overlays and total time that
 // end the frame. The in-core renderer gives it the tree it builds from block classes (and keeps the
 // octree baseline on top); the out-of-core renderer the tree it grows lazily. The cast parameters come
 // from make_cast_params (core/frame/frame.h), the cast from the backend.
@@ -24,7 +24,7 @@ namespace sl {
 
 // Builds SparseLeap segment lists with build_segment_lists's signature into `out` (sized to gen, its
 // storage reused), e.g. GlSegmentListBuilder for `--lists gl`; lists equal to the CPU builder's give
-// the same image (DESIGN.md §7, tests/gl/gl_lists_renderer_test.cpp).
+// the same image (DESIGN.md "Ray segment lists", tests/gl/gl_lists_renderer_test.cpp).
 using ListBuilder = std::function<SegmentListStats(const OccupancyGeometry&, std::span<const VisibilityEntry>,
                                                    const RayGenerator&, SegmentListBuffer& out, float eps)>;
 

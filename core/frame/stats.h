@@ -26,17 +26,17 @@ struct CacheStats {
   std::uint64_t prefetched = 0;
   std::uint64_t prefetch_hits = 0;
   std::uint64_t prefetch_pending = 0;
-  // A stall (issue 14): the frame began with its own loads in flight and made none resident.
+  // A stall: the frame began with its own loads in flight and made none resident.
   bool stall = false;
   std::uint64_t failed = 0;      // bricks that failed to load (reported once each)
-  // Transient read failures retried with backoff (issue 15), like `failed` counted since the first
+  // Transient read failures retried with backoff, like `failed` counted since the first
   // frame: bricks retried, retry reads, and retried bricks that then loaded.
   std::uint64_t bricks_retried = 0;
   std::uint64_t retries = 0;
   std::uint64_t recovered = 0;
   std::uint64_t page_table_bytes = 0;  // page-table memory held (directory, chunks, bookkeeping)
   int converged_at_frame = -1;   // first frame with nothing left to load or resolve (-1: not yet)
-  // Cache pressure (DESIGN.md §4): share of samples served at the level chosen for them (after any
+  // Cache pressure (DESIGN.md "Virtual memory"): share of samples served at the level chosen for them (after any
   // coarsening), share coarser than the pixel footprint asks because of pressure, bricks wanted
   // but not resident; and the view's working set at the footprint's level, measured from the frame's
   // requests, when it exceeds the cache (0 otherwise).

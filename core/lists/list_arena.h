@@ -44,7 +44,7 @@ inline void count_list(SegmentListStats& s, const RayEvent* ev, std::uint32_t wo
 // one atomic add and writes itself there. A range past the end of the array (a frame with more events
 // than any before it) goes to the thread's spill chunks instead, appended once finish() has grown the
 // array: only such frames allocate. Neither the chunks nor the array's new part are zero-filled
-// first (value-initialising RayEvents is a scalar loop, a tenth of a first frame's instructions).
+// first (value-initialising RayEvents is a scalar loop over all of them).
 // Offsets are 32-bit: an image holds up to 2^32 events (32 GiB).
 class EventArena {
  public:

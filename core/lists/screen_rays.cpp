@@ -84,7 +84,7 @@ namespace detail {
 
 // gen.ray(x, y) written out per component (the same IEEE operations in the same order: glm's
 // normalize is v * (1 / sqrt(dot(v, v))), its dot (x*x + y*y) + z*z), with the screen coordinates
-// made once per column and row: a third of the instructions of a ray per pixel through glm. With SSE2,
+// made once per column and row rather than once per pixel. With SSE2,
 // perspective rays four pixels at a time: the same operations per lane (sqrtps and divps round as
 // sqrtss and divss; no contraction into FMA), slab_reciprocal's +inf for either zero made by a blend.
 void tile_rays(const RayGenerator& gen, const ScreenRect& tile, float (*origin)[kTileSize * kTileSize],

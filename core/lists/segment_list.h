@@ -1,4 +1,4 @@
-// Ray events and per-pixel ray segment lists (paper §7, Alg. 4-5; DESIGN.md §7). Shared by the CPU
+// Ray events and per-pixel ray segment lists (paper §7, Alg. 4-5; DESIGN.md "Ray segment lists"). Shared by the CPU
 // builder, the CUDA caster and (mirrored line by line) the GL fragment shader: keep it plain.
 //
 // A list is a front-to-back sequence of events; segment i is [events[i].t, events[i+1].t) with class
@@ -41,8 +41,8 @@ inline constexpr std::uint32_t kListCountMask = 0x7FFFFFFFu;
 namespace detail {
 
 // The event as one 64-bit word (t's bits, then type, class and a zero pad; x86-64 and CUDA devices are
-// little-endian): member by member, GCC assembles the struct with a dozen masks, which cost the CPU
-// builder a tenth of its instructions.
+// little-endian): member by member, GCC assembles the struct with a dozen masks per event, in the
+// CPU builder's innermost loop.
 SL_HOST_DEVICE inline RayEvent make_event(float t, EventType type, OccupancyClass cls) {
   std::uint32_t t_bits;
   std::memcpy(&t_bits, &t, sizeof t_bits);
@@ -53,7 +53,7 @@ SL_HOST_DEVICE inline RayEvent make_event(float t, EventType type, OccupancyClas
   return e;
 }
 
-// Short-gap rule, conservative form (Alg. 5 lines 16-25 as DESIGN.md §7 allows them): `next` starts a
+// Short-gap rule, conservative form (Alg. 5 lines 16-25 as DESIGN.md "Ray segment lists" allows them): `next` starts a
 // NON_EMPTY/UNKNOWN segment at next.t; if the segment before it, [ev[n-1].t, next.t), is EMPTY and
 // shorter than eps, that EMPTY segment is absorbed: the non-empty segment starts at ev[n-1].t instead.
 // Never turns anything non-empty or unknown into EMPTY. Returns the new count, or 0xFFFFFFFF when
@@ -96,7 +96,7 @@ SL_HOST_DEVICE inline void add_event(RayEvent* ev, std::uint32_t& count_word, fl
     if (prev.type == e_type) {
       // Alg. 5, rule 1 (2x ENTRY or 2x EXIT): keep the last only...
       prev.cls = e_cls;
-      // ...and drop it if it now repeats the class before it (minimality, DESIGN.md §7).
+      // ...and drop it if it now repeats the class before it (minimality, DESIGN.md "Ray segment lists").
       if (n >= 2u && ev[n - 2].cls == e_cls) {
         --n;
       } else {

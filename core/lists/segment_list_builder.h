@@ -1,4 +1,4 @@
-// The exact CPU builder of ray segment lists (paper §7.3; DESIGN.md §7): a software rasterizer over
+// The exact CPU builder of ray segment lists (paper §7.3; DESIGN.md "Ray segment lists"): a software rasterizer over
 // screen tiles. Each tile takes, in visibility order, the entries whose box's conservative screen
 // rectangle overlaps it, and for every covered pixel intersects the pixel's ray with the box (the slab
 // test decides hits, exactly as the GL fragment shader does) and adds the event (Alg. 4-5).
@@ -15,7 +15,7 @@
 //  - the tile's rays written out per component (tile_rays, gen.ray()'s bits);
 //  - a first frame's events are not zero-filled before they are written (EventArena).
 // Tighter pixel bounds than the rectangle do not pay here: masking each box's pixels by the exact hit
-// set of the box enclosing it saved 2.5 % of the slab tests and cost 3 % more instructions.
+// set of the box enclosing it saves fewer slab tests than it costs in instructions.
 // Lists are built per tile in a scratch of the tile's pixels x a capacity; a tile one of whose lists
 // outgrows it is built again with twice the capacity (no overflow, no truncation). The tile's lists
 // then go back to back into the buffer's one event array (SegmentListBuffer), which only grows.

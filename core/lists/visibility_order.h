@@ -1,7 +1,7 @@
-// Per-view visibility order of the occupancy geometry (paper §6.2, Alg. 3; DESIGN.md §6): a
-// depth-first, front-to-back traversal of the tree that lists every emitting node twice, FRONT before
-// its children and BACK after them (a leaf's two entries are adjacent). Rasterizing boxes in this order
-// makes a small box's class override the enclosing box's class over its extent (paper Fig. 5).
+// Per-view visibility order of the occupancy geometry (paper §6.2, Alg. 3; DESIGN.md "Occupancy geometry and
+// visibility order"): a depth-first, front-to-back traversal of the tree that lists every emitting node twice,
+// FRONT before its children and BACK after them (a leaf's two entries are adjacent). Rasterizing boxes in this
+// order makes a small box's class override the enclosing box's class over its extent (paper Fig. 5).
 #pragma once
 
 #include <cstdint>

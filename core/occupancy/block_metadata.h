@@ -1,4 +1,4 @@
-// Culling blocks and their metadata (DESIGN.md §3, paper §9.1): intensity min/max over the block
+// Culling blocks and their metadata (DESIGN.md "Data model", paper §9.1): intensity min/max over the block
 // dilated by one voxel (the trilinear footprint of every point in the block) and the set of label ids
 // present in that dilated region. Computed once per block; never recomputed for a transfer-function
 // or label change (culling re-reads it, see core/occupancy/culling.h).
@@ -81,7 +81,7 @@ void dilated_block(ivec3 dims, ivec3 lo, int block, ivec3& first, ivec3& end);
 
 // The metadata of the voxels [first, end) of the views' own coordinates: the least value of `low`,
 // the largest of `high` (the same view for plain data; a min and a max pyramid level where a coarse
-// block must bound every finer voxel below it, DESIGN.md §4) and the ids present in `labels` (null:
+// block must bound every finer voxel below it, DESIGN.md "Virtual memory") and the ids present in `labels` (null:
 // none). The views share dims and must cover the box. Counts one computation.
 BlockMetadata compute_box_metadata(const VolumeView& low, const VolumeView& high, const VolumeView* labels,
                                    ivec3 first, ivec3 end);

@@ -1,5 +1,5 @@
 // Culling of one block against the transfer function, iso value and enabled labels (paper §5.2,
-// DESIGN.md §5). Reads only the cached BlockMetadata, so a TF or label change re-culls without
+// DESIGN.md "Occupancy histogram tree"). Reads only the cached BlockMetadata, so a TF or label change re-culls without
 // touching volume data.
 //
 // Sample model that makes EMPTY conservative (a sample in an EMPTY block contributes nothing):

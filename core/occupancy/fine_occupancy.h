@@ -1,4 +1,4 @@
-// Fine-grained occupancy inside non-empty segments (DESIGN.md §8): one bit per cell of C³ voxels
+// Fine-grained occupancy inside non-empty segments (DESIGN.md "Ray casting"): one bit per cell of C³ voxels
 // (C = 4 or 8), set when some sample in the cell can contribute under the current transfer function
 // and labels. The caster walks the cells of a sampled span and skips the grid samples of clear cells;
 // the samples it takes stay on the one global grid t_k = t_entry + k·dt, so the image is exactly the
@@ -185,10 +185,10 @@ class VoxelMask {
   std::size_t set_ = 0;
 };
 
-// Allowed cell edges in voxels, and the default: kFineCellAuto, which resolve_fine_cell turns into 8
-// where the voxel mask is built (the mask then culls sample by sample, and the walk crosses half as
-// many cells: 8-11 % fewer instructions per frame than 4³ at the same samples, measured on the
-// bench-peers volumes) and into 4 elsewhere (there the cell alone culls, and smaller cells skip more).
+// Allowed cell edges in voxels, and the default: kFineCellAuto, which resolve_fine_cell turns into 8 where the
+// voxel mask is built (the mask then culls sample by sample, and the walk crosses half as many cells, for fewer
+// instructions per frame than 4³ at the same samples) and into 4 elsewhere (there the cell alone culls, and smaller
+// cells skip more).
 inline constexpr int kFineCellAuto = -1;
 inline constexpr int kDefaultFineCell = kFineCellAuto;
 // Throws InputError("--fine-cell", ...) unless cell is kFineCellAuto, 0 (off), 4 or 8.

@@ -1,4 +1,4 @@
-// Occupancy classes of the occupancy histogram tree (paper §5.1, DESIGN.md §5).
+// Occupancy classes of the occupancy histogram tree (paper §5.1, DESIGN.md "Occupancy histogram tree").
 #pragma once
 
 #include <cstdint>

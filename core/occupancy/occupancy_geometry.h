@@ -1,6 +1,6 @@
-// View-independent occupancy geometry (paper §6.1, Alg. 2; DESIGN.md §6): nested boxes emitted
-// breadth first wherever a node's class differs from its parent's. Regenerated only when occupancy
-// changes (TF, labels, tree growth), reused across views.
+// View-independent occupancy geometry (paper §6.1, Alg. 2; DESIGN.md "Occupancy geometry and visibility order"):
+// nested boxes emitted breadth first wherever a node's class differs from its parent's. Regenerated only when
+// occupancy changes (TF, labels, tree growth), reused across views.
 #pragma once
 
 #include <cstddef>

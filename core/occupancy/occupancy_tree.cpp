@@ -167,7 +167,8 @@ void OccupancyTree::set_leaf_class(std::uint32_t leaf, OccupancyClass c) {
   bump_revision();
   OccupancyNode& n = nodes_[leaf];
   n.cls = c;
-  // A leaf counts for all the blocks it covers; the part outside the volume counts EMPTY (DESIGN §5).
+  // A leaf counts for all the blocks it covers; the part outside the volume counts EMPTY (DESIGN.md "Occupancy
+  // histogram tree").
   const std::uint64_t inside = inside_blocks(leaf);
   n.count[0] = n.count[1] = n.count[2] = 0;
   n.count[int(c)] += inside;

@@ -1,5 +1,5 @@
-// The occupancy histogram tree (paper §5, Alg. 1; DESIGN.md §5): an octree over culling blocks whose
-// leaves hold an occupancy class and whose inner nodes hold histograms of the classes below them,
+// The occupancy histogram tree (paper §5, Alg. 1; DESIGN.md "Occupancy histogram tree"): an octree over culling
+// blocks whose leaves hold an occupancy class and whose inner nodes hold histograms of the classes below them,
 // weighted by the number of finest-level blocks, with the class chosen by majority vote.
 //
 // The tree covers the enclosing power-of-two cube of blocks (2^levels() per axis); blocks outside the
@@ -77,12 +77,11 @@ class OccupancyTree {
   // TF/label change in core: rebuild from new per-block classes (made from the cached metadata by
   // classify_blocks; no metadata is recomputed here).
   void reclassify(std::span<const OccupancyClass> classes);
-  // TF/label change out of core, where classes are known only for the regions rays asked for, each at
-  // its level of detail: restart from one UNKNOWN root and set every region with set_region_class in
-  // the order given, coarse before fine (a finer region splits the coarser leaf around it; the other
-  // new children start UNKNOWN and regrow on demand), marking each used in `frame` (DESIGN.md §5:
-  // re-cull from cached metadata, nothing is reloaded). Counts above the regions are not updated:
-  // call propagate().
+  // TF/label change out of core, where classes are known only for the regions rays asked for, each at its level of
+  // detail: restart from one UNKNOWN root and set every region with set_region_class in the order given, coarse
+  // before fine (a finer region splits the coarser leaf around it; the other new children start UNKNOWN and regrow
+  // on demand), marking each used in `frame` (DESIGN.md "Occupancy histogram tree": re-cull from cached metadata,
+  // nothing is reloaded). Counts above the regions are not updated: call propagate().
   void recull(std::span<const RegionClass> regions, std::uint32_t frame);
   // Changed by every edit, and unique across all trees of the process, so a cache keyed on it (the
   // frame pipeline's geometry and lists) never mistakes a rebuilt tree for the one it was built from.

@@ -1,4 +1,4 @@
-// The octree baseline (DESIGN.md §8): a standard min/max octree over the culling blocks, traversed
+// The octree baseline (DESIGN.md "Ray casting"): a standard min/max octree over the culling blocks, traversed
 // with kd-restart (Foley & Sugerman 2005): from the current t, descend from the root to the leaf that
 // holds the ray there, sample or skip that leaf, advance t to its exit, restart.
 //

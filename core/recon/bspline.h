@@ -1,4 +1,4 @@
-// Uniform B-spline reconstruction (DESIGN.md §8; issue 17): the tri-quadratic and tri-cubic B-spline
+// Uniform B-spline reconstruction (DESIGN.md "Ray casting"): the tri-quadratic and tri-cubic B-spline
 // with the voxels as control points, voxel i's control point at its centre (continuous voxel coordinate
 // u = world / voxel size - 0.5 = i). Both filters are approximating (a smoothed version of the data) and
 // convex: the weights are non-negative and sum to one, so a reconstructed value lies within the range of

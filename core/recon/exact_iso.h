@@ -1,4 +1,4 @@
-// Exact isosurfaces (DESIGN.md §8; seed 004, Steinberger, "Highly accurate multiresolution isosurface
+// Exact isosurfaces (DESIGN.md "Ray casting"; seed 004, Steinberger, "Highly accurate multiresolution isosurface
 // rendering", ch. 3): per cell of the voxel-centre grid the trilinear interpolant restricted to the ray is a
 // cubic in t; written in Bernstein form on the ray's stretch inside the cell, its first root is found by
 // LR81 (Lane & Riesenfeld 1981: De Casteljau subdivision guided by the control polygon, discarding pieces
@@ -283,7 +283,7 @@ SL_HOST_DEVICE inline bool lr81_first_root(const float (&p)[N], float s_from, fl
 
 // The cells of the voxel-centre grid of one level that a ray crosses, in order (a 3-D DDA). Cell c spans
 // continuous voxel coordinates [c, c+1] per axis, u = world / voxel size - 0.5 (voxel centres at
-// integers, DESIGN.md §8); cells -1 and dims-1 hold the half voxel at the volume's faces, where the
+// integers, DESIGN.md "Ray casting"); cells -1 and dims-1 hold the half voxel at the volume's faces, where the
 // clamped interpolant is the cell's with repeated corners. A cell's stretch [t0, t1] of the ray is its
 // slab intersection, computed from the cell alone, so the root found in a cell does not depend on where
 // a skipping method's span started the walk (every method gives the same image).

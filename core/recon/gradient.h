@@ -1,4 +1,4 @@
-// The central-difference gradient (DESIGN.md §8: isosurface normals; Blinn–Phong shading), written
+// The central-difference gradient (DESIGN.md "Ray casting": isosurface normals; Blinn–Phong shading), written
 // once for every sampler: the dense in-core volume, the out-of-core virtual sampler and the CUDA
 // texture-atlas sampler. The operation order is fixed here, so all of them give the same bits for the
 // same samples.

@@ -1,4 +1,4 @@
-// Voxel fetch and trilinear sampling by the conventions of DESIGN.md §8: voxel i's value sits at its
+// Voxel fetch and trilinear sampling by the conventions of DESIGN.md "Ray casting": voxel i's value sits at its
 // centre, world (i + 0.5) * spacing; sampling clamps to the edge voxels.
 #pragma once
 
@@ -106,7 +106,7 @@ SL_HOST_DEVICE SL_INLINE float trilerp(const T* r00, const T* r01, const T* r10,
 // `hi` is vec3(dims - 1), which a caller may hold precomputed (the conversions cost about as much as
 // the clamp).
 SL_HOST_DEVICE SL_INLINE vec3 clamped_voxel_coord(const vec3& p, const vec3& inv_spacing, const vec3& hi) {
-  // Per component by name: a loop over u[a] kept glm's run-time indexing (about 30 instructions).
+  // Per component by name: a loop over u[a] keeps glm's run-time indexing.
   // The comparisons are in the operand order of SSE's maxss / minss, so each bound is one instruction
   // (glm's order is not: -0 and NaN differ). Values are those of glm::clamp except that -0 becomes +0
   // (the same cell and blend) and a NaN coordinate becomes 0 (int(NaN) would be undefined).

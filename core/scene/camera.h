@@ -1,4 +1,4 @@
-// Camera description (the camera JSON of DESIGN.md §8) and the plain ray generator casters use.
+// Camera description (the camera JSON of DESIGN.md "Ray casting") and the plain ray generator casters use.
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>

@@ -1,7 +1,7 @@
 // Deterministic synthetic volumes for `sparseleap gen` and the built-in data set of `render`/`bench`
-// (DESIGN.md §9). Output depends only on (kind, dims, seed): never on the thread count or platform
+// (DESIGN.md "Programs"). Output depends only on (kind, dims, seed): never on the thread count or platform
 // (own RNG and fixed per-voxel evaluation order; no std:: distributions, whose output is unspecified).
-// Coordinates follow DESIGN.md §8: voxel i's centre is at i + 0.5, the volume box is [0, dims].
+// Coordinates follow DESIGN.md "Ray casting": voxel i's centre is at i + 0.5, the volume box is [0, dims].
 #pragma once
 
 #include <cstdint>

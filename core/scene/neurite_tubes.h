@@ -8,7 +8,7 @@
 //    "crossing tubes"): three families, each tilted off its axis, seeded on a kFibreGrid² lattice in
 //    coordinates sheared by the tilt; a fibre wanders at most kFibreWander from its sheared line, so a
 //    region needs only nearby lattice cells. A fibre has one label id along its whole length.
-// Coordinates are level-0 voxel units; voxel i's centre is at i + 0.5 (DESIGN.md §8).
+// Coordinates are level-0 voxel units; voxel i's centre is at i + 0.5 (DESIGN.md "Ray casting").
 #pragma once
 
 #include <cstdint>

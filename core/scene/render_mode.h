@@ -1,4 +1,4 @@
-// What a ray computes along its samples (DESIGN.md §8).
+// What a ray computes along its samples (DESIGN.md "Ray casting").
 #pragma once
 
 #include <cstdint>
@@ -8,15 +8,15 @@ namespace sl {
 
 enum class RenderMode : std::uint8_t { Dvr = 0, Mip = 1, Iso = 2, Labels = 3 };
 
-// Empty-space skipping method; all produce the same image (DESIGN.md §8: one global sample grid).
+// Empty-space skipping method; all produce the same image (DESIGN.md "Ray casting": one global sample grid).
 enum class SkipMethod : std::uint8_t { None = 0, BBox = 1, Octree = 2, SparseLeap = 3 };
 
-// How iso mode finds the surface (DESIGN.md §8): Exact, the first root of the trilinear interpolant per
+// How iso mode finds the surface (DESIGN.md "Ray casting"): Exact, the first root of the trilinear interpolant per
 // cell (core/recon/exact_iso.h, seed 004); Sampled, the first sample pair bracketing the iso value, refined by
 // bisection (misses a surface crossed twice within one step).
 enum class IsoMethod : std::uint8_t { Exact = 0, Sampled = 1 };
 
-// The reconstruction filter (DESIGN.md §8; issue 17): trilinear, or the uniform tri-quadratic or
+// The reconstruction filter (DESIGN.md "Ray casting"): trilinear, or the uniform tri-quadratic or
 // tri-cubic B-spline with the voxels as control points (approximating: smoother than the data). Exact
 // iso finds roots of the filter's own ray polynomial (degree 3, 6, 9); DVR, MIP and sampled iso take
 // B-spline samples from 8 trilinear fetches [SH05] (core/recon/bspline.h).

@@ -1,5 +1,5 @@
-// Piecewise-linear RGBA transfer function (DESIGN.md §8): control points, the sampled table casters
-// read, and the O(1) max-opacity range query that culling uses (DESIGN.md §5).
+// Piecewise-linear RGBA transfer function (DESIGN.md "Ray casting"): control points, the sampled table casters
+// read, and the O(1) max-opacity range query that culling uses (DESIGN.md "Occupancy histogram tree").
 #pragma once
 
 #include <string>

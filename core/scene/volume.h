@@ -1,4 +1,4 @@
-// In-memory volume description and storage (DESIGN.md §3), and the plain view that casters read.
+// In-memory volume description and storage (DESIGN.md "Data model"), and the plain view that casters read.
 #pragma once
 
 #include <cstddef>

@@ -1,4 +1,4 @@
-// The voxel element types (DESIGN.md §3: u8/u16/f32 intensities, u16/u32 labels) and the one way
+// The voxel element types (DESIGN.md "Data model": u8/u16/f32 intensities, u16/u32 labels) and the one way
 // from a run-time type to the element type of templated code: every typed loop, sampler
 // instantiation and kernel launch goes through dispatch_voxel / dispatch_label instead of its own
 // switch. core/scene/volume.h includes this; it needs nothing but the enum.
@@ -30,7 +30,7 @@ SL_HOST_DEVICE decltype(auto) dispatch_voxel(VoxelType t, F&& f) {
   return f(float{});
 }
 
-// Label volumes hold integer ids only (DESIGN.md §3): f(T{}) for u8, u16 and u32. F32 is the
+// Label volumes hold integer ids only (DESIGN.md "Data model"): f(T{}) for u8, u16 and u32. F32 is the
 // caller's error: on_float() runs instead (it throws, or returns what f would).
 template <class F, class OnFloat>
 SL_HOST_DEVICE decltype(auto) dispatch_label(VoxelType t, F&& f, OnFloat&& on_float) {

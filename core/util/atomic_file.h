@@ -1,5 +1,5 @@
 // Writing a file so that it is either complete under its name or absent: never partial output left
-// looking complete (DESIGN.md §12). The bytes go to a hidden temporary in the same folder (so the
+// looking complete (DESIGN.md "Conventions"). The bytes go to a hidden temporary in the same folder (so the
 // rename stays on one file system), are flushed and fsync'ed, and the temporary is renamed over the
 // destination only then. Every writer of the project uses this: images, stats, bench CSV/JSON, NRRD,
 // screenshots, transfer functions and camera paths.

@@ -105,7 +105,7 @@ namespace {
 
 // libpng's own stdio writer turns a failed fwrite into "libpng error: Write Error" printed on stderr
 // and drops errno; this one keeps the reason (ENOSPC of a full disk or /dev/full) for the one error
-// line (DESIGN.md §10) and prints nothing itself.
+// line (DESIGN.md "Conventions") and prints nothing itself.
 struct PngSink {
   std::FILE* file = nullptr;
   int error = 0;        // errno of the write that failed

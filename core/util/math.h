@@ -1,5 +1,5 @@
 // GLM, included one way everywhere. Under nvcc, GLM_FORCE_CUDA must NOT be defined (its CUDA version
-// check rejects CUDA 13); GLM then marks its functions __host__ __device__ by itself (DESIGN.md §10).
+// check rejects CUDA 13); GLM then marks its functions __host__ __device__ by itself (DESIGN.md "Conventions").
 #pragma once
 
 #include <glm/glm.hpp>

@@ -1,5 +1,5 @@
-// The process's resident memory, from /proc/self/status (Linux): what bench's soak reports (issue 14)
-// and the distributed driver's per-rank figures.
+// The process's resident memory, from /proc/self/status (Linux): what bench's soak reports and
+// the distributed driver's per-rank figures.
 #pragma once
 
 namespace sl {

@@ -10,7 +10,7 @@ namespace sl {
 struct Ray {
   vec3 origin{0.0f};
   vec3 dir{0.0f, 0.0f, 1.0f};  // normalised; t is world distance along it
-  // origin + t * dir, per component by name (glm's vec3 temporaries cost about twice the instructions;
+  // origin + t * dir, per component by name (glm's vec3 temporaries cost more instructions;
   // the same operations in the same order, so the same bits).
   SL_HOST_DEVICE SL_INLINE vec3 at(float t) const {
     return vec3(origin.x + t * dir.x, origin.y + t * dir.y, origin.z + t * dir.z);

@@ -2,7 +2,7 @@
 // per-frame uniforms, the pixel's ray (RayGenerator::ray) and the slab test (intersect in core/util/ray.h).
 // The ray and the slab test repeat the C++ float operations one for one and in the same order, and
 // `precise` forbids the compiler to contract or reassociate them (no fma, no a*rcp(b) for a/b), so a
-// pixel's hit decision and its t equal the CPU builder's bit for bit (DESIGN.md §7).
+// pixel's hit decision and its t equal the CPU builder's bit for bit (DESIGN.md "Ray segment lists").
 
 // sl::RayEvent (8 bytes): float t; then bytes type (bits 0-7), cls (bits 8-15), pad (16-31 = 0).
 struct SlRayEvent {

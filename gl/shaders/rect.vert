@@ -1,4 +1,4 @@
-// One rectangle per visibility-order entry (DESIGN.md §7): vertices 6k..6k+5 draw draw-slot k as two
+// One rectangle per visibility-order entry (DESIGN.md "Ray segment lists"): vertices 6k..6k+5 draw draw-slot k as two
 // triangles sharing a diagonal, covering exactly the pixel centres of the entry's box's
 // conservative_screen_rect (computed on the host by the CPU builder's function). GL's fill rule gives
 // every covered pixel centre exactly one fragment, and primitive order is draw-slot order.

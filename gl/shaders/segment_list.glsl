@@ -49,7 +49,7 @@ void sl_add_event(uint base, inout uint count_word, inout float t_seen, uint cap
       // Alg. 5, rule 1 (2x ENTRY or 2x EXIT): keep the last only...
       prev.bits = sl_event_type(prev) | (cls << 8);
       sl_events[base + n - 1u] = prev;
-      // ...and drop it if it now repeats the class before it (minimality, DESIGN.md §7).
+      // ...and drop it if it now repeats the class before it (minimality, DESIGN.md "Ray segment lists").
       if (n >= 2u && sl_event_class(sl_events[base + n - 2u]) == cls) {
         --n;
       } else {

@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""A small HTTP/1.1 file server for the remote-store tests (issue 16), standard library only.
+"""A small HTTP/1.1 file server for the remote-store tests, standard library only.
 
 Serves --root on 127.0.0.1 at a free port (written to --port-file once listening): threaded,
 keep-alive, GET and HEAD, Range (bytes=a-b, bytes=a-, suffix bytes=-n; 206 + Content-Range, 416 past

@@ -74,7 +74,7 @@ struct Scenario {
   OccupancyGeometry geometry;
 };
 
-// Neurites on an odd grid, culled against the transfer function (conservative, DESIGN.md §5).
+// Neurites on an odd grid, culled against the transfer function (conservative, DESIGN.md "Occupancy histogram tree").
 const Scenario& culled_neurites() {
   static const Scenario s = [] {
     Scenario r;
@@ -104,7 +104,7 @@ void compare_images(GlContext& ctx, const OccupancyTree& tree, const OccupancyGe
   expect_identical(from_gl, from_cpu);
   EXPECT_GT(from_gl.covered, std::size_t(w) * h / 50) << "the view shows little of the data";
   if (culling_is_conservative) {
-    // Skipping only what the culling proved empty leaves the image unchanged (DESIGN.md §8), with
+    // Skipping only what the culling proved empty leaves the image unchanged (DESIGN.md "Ray casting"), with
     // fewer samples: checks that the walk above is the caster's.
     const Picture full = cast(volume, tf, cam, w, h, nullptr);
     ASSERT_EQ(full.rgba.size(), from_gl.rgba.size());

@@ -1,4 +1,4 @@
-// sl_iso_table: the exact-vs-sampled isosurface table of issue 17 (the shape of seed 004's Table 6.2) on
+// sl_iso_table: the exact-vs-sampled isosurface table (the shape of seed 004's Table 6.2) on
 // one volume: per filter (trilinear, tri-quadratic and tri-cubic B-spline) the exact method and sampling
 // at steps 0.5 and 0.25 [SH05], each with the median ray-cast time and frames per second, the depth error
 // against the filter's reference root (its exact method, LR81 to 1e-6 of a cell, which the tests check

@@ -1,4 +1,4 @@
-// sl_microbench: Google Benchmark micro-benchmarks of the hot loops (issue 6). Every input is made by
+// sl_microbench: Google Benchmark micro-benchmarks of the hot loops. Every input is made by
 // the real pipeline from one synthetic data set, generate_volume("neurites", 256³) with its labels, seen
 // by default_camera() at 512×512 with default_transfer_function(0, 255) and ~10 % of the labels enabled
 // ("fraction:0.1:1") — the sparse setting of the paper's Table 1. Inputs are built once, outside the
@@ -30,7 +30,7 @@
 //      tile by tile (16×16, as the renderer; tiles in a scattered order so that a short run still
 //      covers the whole view), 1024 rays per iteration, resuming where the last iteration stopped.
 //      items = samples taken (RayAccum::samples): the "samples/s per core".
-//  BM_KdRestartStep/<block>      SkipOctreeView::step (kd-restart, DESIGN.md §8) along the same rays
+//  BM_KdRestartStep/<block>      SkipOctreeView::step (kd-restart, DESIGN.md "Ray casting") along the same rays
 //      from volume entry to exit over the min/max octree of <block>³ culling blocks (same classes as
 //      the segment lists). items = steps; counter nodes/step (nodes visited per descent).
 //

@@ -1,4 +1,4 @@
-// `--distributed` under mpirun (DESIGN.md §11): with 1, 2, 3 and 4 ranks the composited image equals
+// `--distributed` under mpirun (DESIGN.md "Beyond one machine"): with 1, 2, 3 and 4 ranks the composited image equals
 // the single-process out-of-core image (EXR RGBA within 1e-5, PNG within 1/255) for perspective and
 // orthographic cameras, a camera inside the volume, ranks with empty regions, and a small cache per
 // rank; bad input on one rank is one error line from rank 0 and every rank exits.

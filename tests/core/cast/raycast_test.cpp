@@ -1,5 +1,5 @@
 // The ray caster against closed forms: Beer–Lambert through a slab and its DVR depth, isosurface depth on a sphere,
-// MIP, and thread-count determinism (DESIGN.md §8 conventions).
+// MIP, and thread-count determinism (DESIGN.md "Ray casting" conventions).
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
 

@@ -1,4 +1,4 @@
-// The k-d split of the distributed renderer (DESIGN.md §11) and the sample clip it gives each rank
+// The k-d split of the distributed renderer (DESIGN.md "Beyond one machine") and the sample clip it gives each rank
 // (core/cast/sample_clip.h): every sample of the global per-ray grid belongs to exactly one region, the
 // clipped index range is exactly the samples whose positions lie in the region, and the regions'
 // order meets each ray's samples front to back.

@@ -1,6 +1,6 @@
 // The frame pipeline shared by the in-core and out-of-core renderers (core/frame/pipeline.h): what is
 // rebuilt when (geometry on a tree change; lists on a change of view, tree, method or gap threshold,
-// DESIGN.md §7), the list-builder hook, frame setup and overlays, the one cast-parameter function, and
+// DESIGN.md "Ray segment lists"), the list-builder hook, frame setup and overlays, the one cast-parameter function, and
 // the metadata counter in Stats.
 #include "core/frame/pipeline.h"
 

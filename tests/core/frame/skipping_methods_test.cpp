@@ -1,5 +1,5 @@
 // The four skipping methods take the same samples on the same grid, so with conservative culling they
-// must produce the same image (DESIGN.md §8): none, bbox, octree and sparseleap, on odd dims, for
+// must produce the same image (DESIGN.md "Ray casting"): none, bbox, octree and sparseleap, on odd dims, for
 // several transfer functions, label subsets, modes and cameras.
 #include <gtest/gtest.h>
 

@@ -259,11 +259,11 @@ TEST(SegmentListBuilder, TileBuilderNeedsADepthFirstOrder) {
   EXPECT_THROW(build_segment_lists(f.geometry, order, gen, b), std::logic_error);
 }
 
-// The 4-wide slab test and its scalar twin give intersect()'s hit decision and, on a hit, its t0 and
-// t1 bit for bit (STYLE.md #15), lane for lane (and the 8-wide AVX2 one the twin's, where it runs) — including rays parallel to an axis, origins on a
-// slab's plane, inside the box, and boxes of zero thickness.
-// The slab properties' inputs from one seed: uniform floats, coordinates that snap to a few values
-// (coincident planes and origins) and boxes, some of zero thickness.
+// The 4-wide slab test and its scalar twin give intersect()'s hit decision and, on a hit, its t0 and t1 bit for bit
+// (STYLE.md #15), lane for lane (and the 8-wide AVX2 one the twin's, where it runs) — including rays parallel to an
+// axis, origins on a slab's plane, inside the box, and boxes of zero thickness. The slab properties' inputs from
+// one seed: uniform floats, coordinates that snap to a few values (coincident planes and origins) and boxes, some
+// of zero thickness.
 struct SlabInputs {
   std::uint64_t st;
   std::uint64_t next() {
@@ -432,7 +432,7 @@ TEST(SegmentListBuilder, AnyThreadCountGivesIdenticalLists) {
   expect_same_lists(one, many);
 }
 
-TEST(SegmentListBuilder, RootOnlyTreeGivesOneUnknownSegmentPerRay) {  // DESIGN.md §7 default list
+TEST(SegmentListBuilder, RootOnlyTreeGivesOneUnknownSegmentPerRay) {  // DESIGN.md "Ray segment lists" default list
   const BlockGrid grid = make_block_grid(ivec3(30, 20, 10), vec3(1.0f), 8);
   const OccupancyTree t(grid);
   const OccupancyGeometry g = build_occupancy_geometry(t);

@@ -1,4 +1,4 @@
-// Ray events, merge rules (Alg. 5) and the main SparseLeap property (DESIGN.md §7, segment_rules.py):
+// Ray events, merge rules (Alg. 5) and the main SparseLeap property (DESIGN.md "Ray segment lists", segment_rules.py):
 // lists built in visibility order equal the classes of the leaves the ray crosses.
 #include "core/lists/segment_list.h"
 
@@ -63,7 +63,7 @@ TEST(SegmentList, Rule1SameTypeOverwritesKeepingTheLast) {  // Alg. 5, rule 1
   expect_list(l, {{1.0f, C::NonEmpty}, {3.0f, C::Empty}});
 }
 
-TEST(SegmentList, Rule1DropsAnOverwriteEqualToThePreviousClass) {  // minimality (DESIGN.md §7)
+TEST(SegmentList, Rule1DropsAnOverwriteEqualToThePreviousClass) {  // minimality (DESIGN.md "Ray segment lists")
   SegmentList l;
   l.add(0.0f, kEntry, C::NonEmpty);
   l.add(1.0f, kEntry, C::Empty);

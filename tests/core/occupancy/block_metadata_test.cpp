@@ -1,4 +1,4 @@
-// Culling blocks and their metadata (DESIGN.md §3): the one-voxel dilation, clipping, validation, and
+// Culling blocks and their metadata (DESIGN.md "Data model"): the one-voxel dilation, clipping, validation, and
 // the same answer from a brick with its apron (out of core) as from the whole volume (in core).
 #include "core/occupancy/block_metadata.h"
 

@@ -1,4 +1,4 @@
-// The octree baseline (DESIGN.md §8): min/max structure and the kd-restart step (Foley & Sugerman).
+// The octree baseline (DESIGN.md "Ray casting"): min/max structure and the kd-restart step (Foley & Sugerman).
 #include "core/occupancy/octree_skip.h"
 
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// B-spline reconstruction (core/recon/bspline.h, issue 17): the tri-quadratic and tri-cubic filters' ray
+// B-spline reconstruction (core/recon/bspline.h): the tri-quadratic and tri-cubic filters' ray
 // polynomials in Bernstein form, their analytic gradients and the 8-fetch evaluation against the
 // definition (RapidCheck), then exact-iso renders against closed forms (a plane: B-splines reproduce
 // linear functions) and against a reference root found in double precision by a dense scan of the

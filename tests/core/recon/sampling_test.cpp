@@ -1,4 +1,4 @@
-// Trilinear sampling and ray generation by the conventions of DESIGN.md §8.
+// Trilinear sampling and ray generation by the conventions of DESIGN.md "Ray casting".
 #include <gtest/gtest.h>
 #include <rapidcheck/gtest.h>
 
