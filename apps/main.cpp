@@ -36,6 +36,7 @@ int sl::app::report_error(std::exception_ptr error) {
 int main(int argc, char** argv) {
   CLI::App app{"sparseleap: out-of-core volume renderer with SparseLeap empty-space skipping"};
   app.require_subcommand(1);
+  app.footer("The reference of every command and option: docs/cli.md");
   std::map<CLI::App*, sl::app::Runner> runners;
   auto add = [&](sl::app::Runner (*fn)(CLI::App&)) {
     const std::size_t before = app.get_subcommands({}).size();

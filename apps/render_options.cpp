@@ -38,18 +38,24 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   const auto key = [&](const char* k) { return view ? std::string(" (key ") + k + ")" : std::string(); };
   SceneOptions& s = o.scene;
   c.add_option("--volume", s.volume,
-               "Volume: NRRD (.nrrd/.nhdr), NIfTI-1 (.nii/.nii.gz), TIFF stack (.tif/.tiff or a directory), OME-Zarr store (.zarr "
-               "directory or http(s):// URL, optionally behind zarr://; out of core with --cache-mb), "
-               "builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default builtin:neurites (256^3)");
+               "Volume: NRRD (.nrrd/.nhdr), NIfTI-1/-2 (.nii, .nii.gz, .hdr/.img), TIFF stack (.tif/.tiff or a "
+               "directory of slices), OME-Zarr v2/v3 store or Neuroglancer precomputed volume (a directory or "
+               "http(s):// URL, optionally behind zarr://, zarr2://, zarr3:// or precomputed://; out of core with "
+               "--cache-mb), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default "
+               "builtin:neurites (256^3)");
   c.add_option("--labels", s.labels,
-               "Label volume (NRRD or .zarr store, integer type, same dims); a .zarr volume's own labels/ group is "
-               "used when this is not given");
-  c.add_option("--tf", s.tf, "Transfer function JSON");
+               "Label volume of an integer type and the same dims, in any format --volume reads; default: a "
+               "store's own labels/ group (a .zarr volume), the built-in set's labels");
+  c.add_option("--tf", s.tf, "Transfer function JSON; default: a ramp over 0..255 for u8, over the data range otherwise");
   c.add_option("--disk-cache", s.disk_cache,
                "Directory caching the objects of remote (http/https) stores between runs (LRU, crash-safe)");
   c.add_option("--disk-cache-mb", s.disk_cache_mb, "Bound of --disk-cache in MB (default 1024)");
-  if (cmd != Command::Bench) c.add_option("--camera", s.camera, "Camera JSON");
-  c.add_option("--enable", s.enable, "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED");
+  if (cmd != Command::Bench) {
+    c.add_option("--camera", s.camera, "Camera JSON; default: the whole volume seen from front-right-top");
+  }
+  c.add_option("--enable", s.enable,
+               "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED; in dvr, mip and iso only samples of "
+               "enabled labels contribute; labels mode shows all in core and needs --enable out of core");
 
   c.add_option("--size", o.size,
                view ? "Rendered canvas WxH (the window adds a control panel at its left)" : "Image size WxH")
@@ -114,7 +120,8 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                std::string(view ? "Start with the occupancy-box overlay on" : "Overlay the occupancy geometry") +
                    " (EMPTY red, NON_EMPTY green, UNKNOWN grey)" + key("B"));
   }
-  c.add_option("--backend", o.backend, "auto, cpu or cuda")->capture_default_str();
+  c.add_option("--backend", o.backend, "auto (CUDA when a device is found, else the CPU, saying why), cpu or cuda")
+      ->capture_default_str();
   c.add_option("--lists", o.lists, "Segment-list builder: cpu, or gl (OpenGL rasterizer, headless EGL)")
       ->capture_default_str();
   c.add_option("--cuda-sampler", o.cuda_sampler,
