@@ -78,9 +78,8 @@ OutOfCoreSettings out_of_core_settings(const RenderOptions& o);
 
 // The methods out of core (the page-table sampler walks segment lists or every sample); also what the
 // viewer's method keys and buttons offer there.
-// --block auto: the culling block edge in core and out of core. In core, 8 was measured against 16
-// (README "Benchmarks": 10-18 % faster frames on the sparse volumes, the same on the dense ones); out
-// of core, 16 keeps the metadata of a brick (and the cache's metadata budget) as it was tuned.
+// --block auto: the culling block edge in core and out of core. In core, 8 gives faster frames than 16 on
+// sparse volumes and the same on dense ones (docs/skipping.md); out of core, 16 keeps the metadata of a brick (and the cache's metadata budget) as it was tuned.
 inline constexpr int kInCoreBlock = 8;
 inline constexpr int kOutOfCoreBlock = 16;
 // The block edge `text` (auto, 4, 8, 16 or 32) names; throws InputError("--block", ...) otherwise.

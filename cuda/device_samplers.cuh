@@ -1,6 +1,6 @@
 // Samplers the kernels cast over. They only dispatch to core/ and cache/ code (DenseGrid,
 // VirtualSampler): the label type is chosen at run time instead of being a template parameter, which
-// divides the kernel instantiations by three (build time; see README "CUDA backend").
+// divides the kernel instantiations by three (build time; docs/cuda.md, "Building: architectures and compile time").
 #pragma once
 
 #include <cstdint>

@@ -10,7 +10,7 @@ then serves commands read line by line from stdin, answering each with one `RESU
   image I PREFIX       render view I; write PREFIX_raycast.npy (the mapper's own ray-cast image) and
                        PREFIX_framebuffer.npy (the window read back): float32 RGBA, row 0 at the top
 
-Conventions bridged to sparseleap's (README "Formats and conventions"):
+Conventions bridged to sparseleap's (docs/formats.md, "Conventions and file formats"):
 - voxel centres and the volume box: VTK puts voxel i at origin + i * spacing and ends its volume at the
   outer voxel centres; sparseleap puts voxel i at (i + 0.5) * spacing and its box at [0, dims * spacing],
   sampling the outer half voxel from the edge voxels (clamp). So VTK gets the volume padded by one edge
