@@ -37,8 +37,8 @@ std::pair<std::string, bool> describe(std::exception_ptr e) {
 }
 
 // The work-estimate grid along the largest axis: a few cells per rank to balance on, few enough
-// bricks that reading them stays cheap (a coarse procedural brick costs ~0.1 s of CPU here: the
-// 8 TiB volume's 8 x 8 x 2 grid of level 7 takes ~10 s, its 16 x 16 x 4 of level 6 ~75 s).
+// bricks that reading them stays cheap: each cell is a coarse brick, and a procedural one costs real
+// CPU time to generate.
 int estimate_cells(int ranks) { return std::clamp(2 * ranks, 8, 64); }
 
 }  // namespace
@@ -57,8 +57,8 @@ Distributed::Distributed() {
   IceTContext ctx = icetCreateContext(comm);
   icet_context_ = ctx;
   icetDiagnostics(ICET_DIAG_ERRORS | ICET_DIAG_ROOT_NODE);
-  // Premultiplied float RGBA, no depth, blended in a given order (DESIGN.md §11): the "over" of
-  // front-to-back partial sums equals the single ray's sum up to rounding.
+  // Premultiplied float RGBA, no depth, blended in a given order (DESIGN.md "Beyond one machine"):
+  // the "over" of front-to-back partial sums equals the single ray's sum up to rounding.
   icetSetColorFormat(ICET_IMAGE_COLOR_RGBA_FLOAT);
   icetSetDepthFormat(ICET_IMAGE_DEPTH_NONE);
   icetCompositeMode(ICET_COMPOSITE_MODE_BLEND);

@@ -1,6 +1,7 @@
 // A command's output files as one set: every one checked before the (slow) work, written in order,
 // and on a failure part-way (a full disk at the last file) the ones already written by this run
-// removed again, so a failed command never leaves a complete-looking subset behind (DESIGN.md §12).
+// removed again, so a failed command never leaves a complete-looking subset behind (DESIGN.md
+// "Conventions").
 #pragma once
 
 #include <functional>

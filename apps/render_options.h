@@ -48,8 +48,8 @@ struct RenderOptions {
   int lod = -1;
   float lod_bias = 1.0f;
   unsigned retire_frames = 60;
-  // on|off (out of core; OutOfCoreSettings::prefetch). On: measured faster to converge along a
-  // zoom-in path (bench --path-kind zoom-in --prefetch on|off, alternate runs).
+  // on|off (out of core; OutOfCoreSettings::prefetch). On: a moving view converges sooner (compare
+  // with bench --path-kind zoom-in --prefetch on|off).
   std::string prefetch = "on";
   bool distributed = false;     // render, bench: sort-last under mpirun (apps/distributed.h)
 
@@ -78,8 +78,9 @@ OutOfCoreSettings out_of_core_settings(const RenderOptions& o);
 
 // The methods out of core (the page-table sampler walks segment lists or every sample); also what the
 // viewer's method keys and buttons offer there.
-// --block auto: the culling block edge in core and out of core. In core, 8 gives faster frames than 16 on
-// sparse volumes and the same on dense ones (docs/skipping.md); out of core, 16 keeps the metadata of a brick (and the cache's metadata budget) as it was tuned.
+// --block auto: the culling block edge in core and out of core. In core 8: faster frames than 16 on
+// sparse volumes, the same on dense ones (docs/skipping.md); out of core 16: it keeps the metadata of
+// a brick, and so the cache's metadata budget, small.
 inline constexpr int kInCoreBlock = 8;
 inline constexpr int kOutOfCoreBlock = 16;
 // The block edge `text` (auto, 4, 8, 16 or 32) names; throws InputError("--block", ...) otherwise.

@@ -174,7 +174,7 @@ SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
   SourceScene s;
   const StoreLocation store = recognise_store(o.volume);
   if (out_of_core && store.kind != StoreKind::None) {
-    // A chunked store streams chunk by chunk through the brick loader (DESIGN.md §4).
+    // A chunked store streams chunk by chunk through the brick loader (DESIGN.md "Virtual memory").
     const StoreLocation labels = recognise_store(o.labels);
     if (!o.labels.empty() && labels.kind != store.kind) {
       throw InputError("--labels", store.kind == StoreKind::Zarr
@@ -221,7 +221,7 @@ SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
 
 SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
   SourceScene s = open_source_scene(o, out_of_core);
-  // The one place sources are opened, so every source kind can be tested under faults (issue 15).
+  // The one place sources are opened, so every source kind can be tested under faults.
   if (s.source && !o.inject_faults.empty()) {
     s.source = std::make_shared<FaultInjectingSource>(s.source, parse_fault_spec(o.inject_faults));
   }

@@ -34,7 +34,8 @@ struct SceneOptions {
 
 // A scene whose data may also be read out of core: a volume in memory (rendered in core, or through
 // the brick cache when `out_of_core`), or a procedural source that exists only as bricks (always out
-// of core, DESIGN.md §4). Procedural sources have their own hashed label ids: no --labels/--enable.
+// of core, DESIGN.md "Virtual memory"). Procedural sources have their own hashed label ids: no
+// --labels/--enable.
 struct SourceScene {
   std::string name;
   VolumeDesc desc;

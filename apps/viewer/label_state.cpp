@@ -49,6 +49,29 @@ void LabelState::random_fraction(double p, std::uint64_t seed) {
   touch();
 }
 
+namespace {
+
+// The voxel walk along one axis, for a ray entering voxel `voxel` at `entry` (voxel units) at t0:
+// the step to the next voxel, the t where it is reached, and the t between two steps.
+struct WalkAxis {
+  int step = 0;
+  float t_next = INFINITY;
+  float t_delta = INFINITY;
+};
+
+WalkAxis walk_axis(float dir, float entry, int voxel, float t0) {
+  if (dir > 0.0f) return {1, t0 + (float(voxel + 1) - entry) / dir, 1.0f / dir};
+  if (dir < 0.0f) return {-1, t0 + (float(voxel) - entry) / dir, -1.0f / dir};
+  return {};
+}
+
+// The axis whose next voxel boundary the ray meets first.
+int nearest_axis(const vec3& t_next) {
+  return t_next.x < t_next.y ? (t_next.x < t_next.z ? 0 : 2) : (t_next.y < t_next.z ? 1 : 2);
+}
+
+}  // namespace
+
 std::uint32_t pick_label(const Volume& labels, const Camera& camera, int width, int height, int px, int py,
                          const LabelSet* accept) {
   if (labels.empty() || px < 0 || py < 0 || px >= width || py >= height) return 0;
@@ -67,19 +90,10 @@ std::uint32_t pick_label(const Volume& labels, const Camera& camera, int width, 
   ivec3 step;
   vec3 t_next, t_delta;
   for (int a = 0; a < 3; ++a) {
-    if (dir[a] > 0.0f) {
-      step[a] = 1;
-      t_next[a] = t0 + (float(v[a] + 1) - entry[a]) / dir[a];
-      t_delta[a] = 1.0f / dir[a];
-    } else if (dir[a] < 0.0f) {
-      step[a] = -1;
-      t_next[a] = t0 + (float(v[a]) - entry[a]) / dir[a];
-      t_delta[a] = -1.0f / dir[a];
-    } else {
-      step[a] = 0;
-      t_next[a] = INFINITY;
-      t_delta[a] = INFINITY;
-    }
+    const WalkAxis w = walk_axis(dir[a], entry[a], v[a], t0);
+    step[a] = w.step;
+    t_next[a] = w.t_next;
+    t_delta[a] = w.t_delta;
   }
   const VolumeView view = labels.view();
   // At most one visit per voxel along each axis: bounds the loop even with rounding at the faces.
@@ -87,7 +101,7 @@ std::uint32_t pick_label(const Volume& labels, const Camera& camera, int width, 
   for (int i = 0; i < max_steps; ++i) {
     const std::uint32_t id = view.label(v.x, v.y, v.z);
     if (id != 0u && (!accept || accept->enabled(id))) return id;
-    const int a = t_next.x < t_next.y ? (t_next.x < t_next.z ? 0 : 2) : (t_next.y < t_next.z ? 1 : 2);
+    const int a = nearest_axis(t_next);
     if (t_next[a] > hit.t1) break;
     v[a] += step[a];
     if (v[a] < 0 || v[a] >= d.dims[a]) break;

@@ -8,8 +8,9 @@ namespace sl::viewer {
 namespace {
 
 constexpr float kPi = 3.14159265358979f;
-// Zoom range relative to the home distance: close enough to fly inside the volume (DESIGN.md §7
-// supports cameras inside it), far enough to see it as a speck; never zero, so the view stays defined.
+// Zoom range relative to the home distance: close enough to fly inside the volume (DESIGN.md "Ray
+// segment lists" supports cameras inside it), far enough to see it as a speck; never zero, so the
+// view stays defined.
 constexpr float kMinZoom = 0.02f;
 constexpr float kMaxZoom = 20.0f;
 

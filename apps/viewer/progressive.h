@@ -1,7 +1,7 @@
-// Progressive rendering (issue 13): while the view changes (orbit, pan, zoom, a transfer-function or
-// label edit), the viewer renders a coarse frame — a fraction of the canvas's pixels, shown stretched —
-// chosen so a frame holds a time budget; once the view is still it renders the full-resolution frame,
-// which is the image `render` makes for that view. The choice adapts to the measured frame times.
+// Progressive rendering: while the view changes (orbit, pan, zoom, a transfer-function or label edit),
+// the viewer renders a coarse frame — a fraction of the canvas's pixels, shown stretched — chosen so a
+// frame holds a time budget; once the view is still it renders the full-resolution frame, which is the
+// image `render` makes for that view. The choice adapts to the measured frame times.
 #pragma once
 
 #include <array>
@@ -56,7 +56,7 @@ class ProgressiveLevels {
 // - Refine: the view is unchanged, the user is not dragging, the last request was coarse and the worker
 //   is idle (so the coarse frame was shown first): render it at full resolution;
 // - Repeat: a full-resolution frame is on screen and out of core it is still loading bricks: render
-//   the same view again, each frame more complete (DESIGN.md §4);
+//   the same view again, each frame more complete (DESIGN.md "Virtual memory");
 // - None otherwise (dragging without moving keeps the coarse frame).
 enum class Submission { None, Changed, Refine, Repeat };
 Submission next_submission(bool changed, bool interacting, int last_level, bool worker_idle,

@@ -40,9 +40,9 @@ struct RenderResult {
   std::string error;  // non-empty when the frame failed; the UI shows it and keeps the last image
 };
 
-// What the PNG of a frame shows (DESIGN.md §8: premultiplied colour over black, sRGB-encoded), as
-// 8-bit RGBA for a texture: byte for byte the PNG's values (write_png), so a full-resolution frame on
-// screen is the image `render` writes.
+// What the PNG of a frame shows (DESIGN.md "Rendering conventions": premultiplied colour over black,
+// sRGB-encoded), as 8-bit RGBA for a texture: byte for byte the PNG's values (write_png), so a
+// full-resolution frame on screen is the image `render` writes.
 std::vector<std::uint8_t> to_display_rgba8(const Image& img);
 
 class RenderWorker {

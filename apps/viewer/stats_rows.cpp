@@ -38,7 +38,7 @@ void add_rows(std::vector<StatRow>& r, const Stats& s) {
                                "/" + fmt("%.0f", double(s.depth_complexity_max))});
   r.push_back({"occ. misses", human_count(double(s.occupancy_misses))});
   r.push_back({"overflows", human_count(double(s.list_overflows))});
-  // Out-of-core cache (DESIGN.md §4): only frames of the out-of-core path carry it.
+  // Out-of-core cache (DESIGN.md "Virtual memory"): only frames of the out-of-core path carry it.
   if (s.cache.present) {
     const CacheStats& c = s.cache;
     r.push_back({"cache", "", true});

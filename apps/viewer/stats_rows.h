@@ -21,9 +21,9 @@ std::vector<StatRow> stats_rows(const Stats& s);
 
 // Bricks still being loaded after this frame (0 in core): the overlay's loading indicator.
 std::uint64_t pending_loads(const Stats& s);
-// Whether another frame of the same view would show more (out of core: the renderer has not
-// converged — loads pending or misses still to resolve): the viewer then keeps rendering, so the image
-// refines as data stream in (DESIGN.md §4). A converged frame stops it even when incomplete (the
+// Whether another frame of the same view would show more (out of core: the renderer has not converged
+// — loads pending or misses still to resolve): the viewer then keeps rendering, so the image refines
+// as data stream in (DESIGN.md "Virtual memory"). A converged frame stops it even when incomplete (the
 // bricks that do not fit at a pinned level stay missing whatever is rendered next).
 bool still_refining(const Stats& s);
 

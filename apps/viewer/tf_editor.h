@@ -45,7 +45,7 @@ class TfEditor {
 
   TransferFunction build() const;
   void set(const TransferFunction& tf);
-  // JSON in the format of DESIGN.md §8; InputError names the file.
+  // JSON in the format of DESIGN.md "Rendering conventions"; InputError names the file.
   void load(const std::string& path);
   void save(const std::string& path) const;
 

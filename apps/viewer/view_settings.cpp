@@ -18,20 +18,36 @@ bool method_available(const ViewSettings& v, SkipMethod m) {
   return !v.out_of_core || app::out_of_core_method(m);
 }
 
+namespace {
+
+// Keys 1-4: method m, unless it cannot render here.
+KeyAction select_method(ViewSettings& v, SkipMethod m) {
+  if (!method_available(v, m)) return KeyAction::None;
+  // Out of core the B-splines run with --method none only.
+  if (v.out_of_core && v.render.filter != Filter::Linear && m != SkipMethod::None) return KeyAction::None;
+  v.render.method = m;
+  return KeyAction::Changed;
+}
+
+// Key F: linear -> quadratic -> cubic -> linear.
+KeyAction next_filter(ViewSettings& v) {
+  // Out of core the B-splines need --method none (the bricks' apron bounds culling to trilinear).
+  if (v.out_of_core && v.render.method != SkipMethod::None) return KeyAction::None;
+  v.render.filter = v.render.filter == Filter::Linear      ? Filter::Quadratic
+                    : v.render.filter == Filter::Quadratic ? Filter::Cubic
+                                                           : Filter::Linear;
+  return KeyAction::Changed;
+}
+
+}  // namespace
+
 KeyAction apply_key(ViewSettings& v, int key) {
   if (key >= 'a' && key <= 'z') key -= 'a' - 'A';
   switch (key) {
     case '1':
     case '2':
     case '3':
-    case '4':
-      if (!method_available(v, kMethods[key - '1'])) return KeyAction::None;
-      // Out of core the B-splines run with --method none only.
-      if (v.out_of_core && v.render.filter != Filter::Linear && kMethods[key - '1'] != SkipMethod::None) {
-        return KeyAction::None;
-      }
-      v.render.method = kMethods[key - '1'];
-      return KeyAction::Changed;
+    case '4': return select_method(v, kMethods[key - '1']);
     case 'M': v.render.mode = next_mode(v.render.mode, v.has_labels); return KeyAction::Changed;
     case 'B': v.render.boxes_overlay = !v.render.boxes_overlay; return KeyAction::Changed;
     case 'D': v.render.depth_complexity_view = !v.render.depth_complexity_view; return KeyAction::Changed;
@@ -39,13 +55,7 @@ KeyAction apply_key(ViewSettings& v, int key) {
     case 'E':
       v.render.iso_method = v.render.iso_method == IsoMethod::Exact ? IsoMethod::Sampled : IsoMethod::Exact;
       return KeyAction::Changed;
-    case 'F':
-      // Out of core the B-splines need --method none (the bricks' apron bounds culling to trilinear).
-      if (v.out_of_core && v.render.method != SkipMethod::None) return KeyAction::None;
-      v.render.filter = v.render.filter == Filter::Linear ? Filter::Quadratic
-                        : v.render.filter == Filter::Quadratic ? Filter::Cubic
-                                                               : Filter::Linear;
-      return KeyAction::Changed;
+    case 'F': return next_filter(v);
     case 'R': return KeyAction::ResetView;
     case 'S': return KeyAction::Screenshot;
     case 'K': return KeyAction::Keyframe;

@@ -38,7 +38,8 @@ inline constexpr SkipMethod kMethods[] = {SkipMethod::None, SkipMethod::BBox, Sk
                                           SkipMethod::SparseLeap};
 inline constexpr RenderMode kModes[] = {RenderMode::Dvr, RenderMode::Mip, RenderMode::Iso, RenderMode::Labels};
 
-// The LOD bias (DESIGN.md §4) once RenderSettings has one; null before, and the panel hides it.
+// The LOD bias (DESIGN.md "Virtual memory") once RenderSettings has one; null before, and the panel
+// hides it.
 template <class R>
 auto* lod_bias_of(R& r) {
   if constexpr (requires { r.lod_bias; }) {

@@ -76,6 +76,28 @@ void path_controls(PanelModel& m, PanelState& st, PanelActions& a) {
   if (ImGui::Button("save path")) a.save_path = true;
 }
 
+// Two label/value pairs per line: half the height, so the overlay hides less of a small canvas.
+void draw_stat_rows(const std::vector<StatRow>& rows) {
+  if (!rows.empty() && ImGui::BeginTable("rows", 4, ImGuiTableFlags_SizingFixedFit)) {
+    int column = 0;
+    for (const StatRow& r : rows) {
+      if (r.heading || column == 0) ImGui::TableNextRow();
+      if (r.heading) {
+        ImGui::TableSetColumnIndex(0);
+        ImGui::TextDisabled("%s", r.label.c_str());
+        column = 0;
+        continue;
+      }
+      ImGui::TableSetColumnIndex(column);
+      ImGui::TextUnformatted(r.label.c_str());
+      ImGui::TableSetColumnIndex(column + 1);
+      ImGui::TextUnformatted(r.value.c_str());
+      column = column == 0 ? 2 : 0;
+    }
+    ImGui::EndTable();
+  }
+}
+
 }  // namespace
 
 PanelActions draw_control_panel(PanelModel& m, PanelState& st, float width, float height) {
@@ -127,25 +149,7 @@ void draw_stats_overlay(const std::vector<StatRow>& rows, const OverlayInfo& inf
     ImGui::TextColored(ImVec4(1.0f, 0.35f, 0.3f, 1.0f), "%s", info.error.c_str());
     ImGui::PopTextWrapPos();
   }
-  // Two label/value pairs per line: half the height, so the overlay hides less of a small canvas.
-  if (!rows.empty() && ImGui::BeginTable("rows", 4, ImGuiTableFlags_SizingFixedFit)) {
-    int column = 0;
-    for (const StatRow& r : rows) {
-      if (r.heading || column == 0) ImGui::TableNextRow();
-      if (r.heading) {
-        ImGui::TableSetColumnIndex(0);
-        ImGui::TextDisabled("%s", r.label.c_str());
-        column = 0;
-        continue;
-      }
-      ImGui::TableSetColumnIndex(column);
-      ImGui::TextUnformatted(r.label.c_str());
-      ImGui::TableSetColumnIndex(column + 1);
-      ImGui::TextUnformatted(r.value.c_str());
-      column = column == 0 ? 2 : 0;
-    }
-    ImGui::EndTable();
-  }
+  draw_stat_rows(rows);
   ImGui::End();
 }
 

@@ -16,72 +16,99 @@ ImU32 to_u32(const vec4& c) {
   return ImGui::ColorConvertFloat4ToU32(ImVec4(c.r, c.g, c.b, c.a));
 }
 
-}  // namespace
+// The transfer-function canvas on screen: value runs left to right over [lo, hi], opacity bottom to
+// top; the colour ramp is a strip under it.
+struct TfArea {
+  ImVec2 p0, p1;  // the curve's rectangle (without the strip)
+  float w = 0.0f, h = 0.0f;
+  float lo = 0.0f, hi = 1.0f;
+  static constexpr float kStrip = 10.0f;
+  float to_x(float v) const { return p0.x + (v - lo) / (hi - lo) * w; }
+  float to_y(float a) const { return p0.y + (1.0f - a) * h; }
+};
 
-bool tf_canvas(TfEditor& tf, const std::vector<float>& hist, PanelState& st) {
-  const float w = std::max(ImGui::GetContentRegionAvail().x, 50.0f);
-  const float h = 110.0f;
-  const float strip = 10.0f;  // the colour ramp under the curve
-  const ImVec2 p0 = ImGui::GetCursorScreenPos();
-  const ImVec2 p1(p0.x + w, p0.y + h);
-  ImGui::InvisibleButton("tf_canvas", ImVec2(w, h + strip),
-                         ImGuiButtonFlags_MouseButtonLeft | ImGuiButtonFlags_MouseButtonRight);
-  const bool hovered = ImGui::IsItemHovered();
-  const bool active = ImGui::IsItemActive();
-  const float lo = tf.lo(), hi = tf.hi();
-  auto to_x = [&](float v) { return p0.x + (v - lo) / (hi - lo) * w; };
-  auto to_y = [&](float a) { return p0.y + (1.0f - a) * h; };
-  const ImVec2 mouse = ImGui::GetIO().MousePos;
-  const float mv = lo + std::clamp((mouse.x - p0.x) / w, 0.0f, 1.0f) * (hi - lo);
-  const float ma = std::clamp(1.0f - (mouse.y - p0.y) / h, 0.0f, 1.0f);
-
-  ImDrawList* dl = ImGui::GetWindowDrawList();
-  dl->AddRectFilled(p0, ImVec2(p1.x, p1.y + strip), IM_COL32(22, 22, 28, 255));
-  // The histogram says where the data are, so points go where they matter.
+// The histogram says where the data are, so points go where they matter.
+void draw_histogram(ImDrawList* dl, const TfArea& r, const std::vector<float>& hist) {
   const int bins = int(hist.size());
   for (int i = 0; i < bins; ++i) {
     if (hist[std::size_t(i)] <= 0.0f) continue;
-    const float x0 = p0.x + w * float(i) / float(bins);
-    const float x1 = p0.x + w * float(i + 1) / float(bins);
-    dl->AddRectFilled(ImVec2(x0, p1.y - hist[std::size_t(i)] * h), ImVec2(std::max(x1, x0 + 1.0f), p1.y),
+    const float x0 = r.p0.x + r.w * float(i) / float(bins);
+    const float x1 = r.p0.x + r.w * float(i + 1) / float(bins);
+    dl->AddRectFilled(ImVec2(x0, r.p1.y - hist[std::size_t(i)] * r.h), ImVec2(std::max(x1, x0 + 1.0f), r.p1.y),
                       IM_COL32(80, 84, 96, 255));
   }
-  const TransferFunction fn = tf.build();
-  for (int x = 0; x < int(w); ++x) {
-    vec4 c = fn.evaluate(lo + (float(x) + 0.5f) / w * (hi - lo));
+}
+
+void draw_colour_ramp(ImDrawList* dl, const TfArea& r, const TransferFunction& fn) {
+  for (int x = 0; x < int(r.w); ++x) {
+    vec4 c = fn.evaluate(r.lo + (float(x) + 0.5f) / r.w * (r.hi - r.lo));
     c.a = 1.0f;
-    dl->AddRectFilled(ImVec2(p0.x + float(x), p1.y + 1.0f), ImVec2(p0.x + float(x) + 1.0f, p1.y + strip), to_u32(c));
+    const float x0 = r.p0.x + float(x);
+    dl->AddRectFilled(ImVec2(x0, r.p1.y + 1.0f), ImVec2(x0 + 1.0f, r.p1.y + TfArea::kStrip), to_u32(c));
   }
-  const auto& pts = tf.points();
+}
+
+// The opacity curve through the control points, each drawn in its colour; the selected one ringed.
+void draw_points(ImDrawList* dl, const TfArea& r, const std::vector<TfPoint>& pts, int selected) {
   for (std::size_t i = 1; i < pts.size(); ++i) {
-    const ImVec2 a(to_x(pts[i - 1].value), to_y(pts[i - 1].rgba.a));
-    dl->AddLine(a, ImVec2(to_x(pts[i].value), to_y(pts[i].rgba.a)), IM_COL32(230, 230, 230, 255), 1.5f);
+    const ImVec2 a(r.to_x(pts[i - 1].value), r.to_y(pts[i - 1].rgba.a));
+    dl->AddLine(a, ImVec2(r.to_x(pts[i].value), r.to_y(pts[i].rgba.a)), IM_COL32(230, 230, 230, 255), 1.5f);
   }
   for (std::size_t i = 0; i < pts.size(); ++i) {
-    const ImVec2 c(to_x(pts[i].value), to_y(pts[i].rgba.a));
+    const ImVec2 c(r.to_x(pts[i].value), r.to_y(pts[i].rgba.a));
     dl->AddCircleFilled(c, 5.0f, to_u32(vec4(vec3(pts[i].rgba), 1.0f)));
-    const bool sel = int(i) == st.tf_selected;
+    const bool sel = int(i) == selected;
     dl->AddCircle(c, sel ? 7.0f : 5.0f, sel ? IM_COL32(255, 220, 0, 255) : IM_COL32(255, 255, 255, 255), 0, 1.5f);
   }
+}
 
-  const float px_per_value = w / (hi - lo);
+// The canvas's mouse at (mv, ma) in value and opacity: a left click grabs the point under it or makes
+// one there, a left drag moves it, a right click deletes the point under it.
+void edit_points(TfEditor& tf, PanelState& st, const TfArea& r, float mv, float ma) {
+  const float px_per_value = r.w / (r.hi - r.lo);
   if (ImGui::IsItemClicked(ImGuiMouseButton_Left)) {
     // Grab a point under the cursor, or make one there (on the current colour).
-    int i = tf.nearest(mv, ma, px_per_value, h, 7.0f);
+    int i = tf.nearest(mv, ma, px_per_value, r.h, 7.0f);
     if (i < 0) i = tf.insert_at(mv, ma);
     st.tf_selected = st.tf_dragging = i;
-  } else if (st.tf_dragging >= 0 && active && ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
+  } else if (st.tf_dragging >= 0 && ImGui::IsItemActive() && ImGui::IsMouseDown(ImGuiMouseButton_Left)) {
     const ImVec2 d = ImGui::GetIO().MouseDelta;
     if (d.x != 0.0f || d.y != 0.0f) tf.move(st.tf_dragging, mv, ma);  // only real moves re-cull
   }
   if (!ImGui::IsMouseDown(ImGuiMouseButton_Left)) st.tf_dragging = -1;
   if (ImGui::IsItemClicked(ImGuiMouseButton_Right)) {
-    const int i = tf.nearest(mv, ma, px_per_value, h, 7.0f);
+    const int i = tf.nearest(mv, ma, px_per_value, r.h, 7.0f);
     if (i >= 0 && tf.remove(i)) {
       if (st.tf_selected == i) st.tf_selected = -1;
       if (st.tf_selected > i) --st.tf_selected;
     }
   }
+}
+
+}  // namespace
+
+bool tf_canvas(TfEditor& tf, const std::vector<float>& hist, PanelState& st) {
+  TfArea r;
+  r.w = std::max(ImGui::GetContentRegionAvail().x, 50.0f);
+  r.h = 110.0f;
+  r.p0 = ImGui::GetCursorScreenPos();
+  r.p1 = ImVec2(r.p0.x + r.w, r.p0.y + r.h);
+  ImGui::InvisibleButton("tf_canvas", ImVec2(r.w, r.h + TfArea::kStrip),
+                         ImGuiButtonFlags_MouseButtonLeft | ImGuiButtonFlags_MouseButtonRight);
+  const bool hovered = ImGui::IsItemHovered();
+  r.lo = tf.lo();
+  r.hi = tf.hi();
+  const ImVec2 mouse = ImGui::GetIO().MousePos;
+  const float mv = r.lo + std::clamp((mouse.x - r.p0.x) / r.w, 0.0f, 1.0f) * (r.hi - r.lo);
+  const float ma = std::clamp(1.0f - (mouse.y - r.p0.y) / r.h, 0.0f, 1.0f);
+
+  ImDrawList* dl = ImGui::GetWindowDrawList();
+  dl->AddRectFilled(r.p0, ImVec2(r.p1.x, r.p1.y + TfArea::kStrip), IM_COL32(22, 22, 28, 255));
+  draw_histogram(dl, r, hist);
+  draw_colour_ramp(dl, r, tf.build());
+  const auto& pts = tf.points();
+  draw_points(dl, r, pts, st.tf_selected);
+  edit_points(tf, st, r, mv, ma);
   if (hovered) ImGui::SetTooltip("value %.1f  opacity %.2f\nleft: add / drag   right: delete", mv, ma);
   if (st.tf_selected >= int(pts.size())) st.tf_selected = -1;
   return st.tf_dragging >= 0;

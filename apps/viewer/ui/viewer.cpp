@@ -16,15 +16,13 @@
 #include <optional>
 
 #include "apps/scene_renderer.h"
-#include "apps/viewer/label_state.h"
-#include "apps/viewer/orbit_controller.h"
-#include "apps/viewer/path_recorder.h"
 #include "apps/viewer/progressive.h"
 #include "apps/viewer/render_worker.h"
 #include "apps/viewer/screenshot.h"
 #include "apps/viewer/stats_rows.h"
-#include "apps/viewer/tf_editor.h"
+#include "apps/viewer/ui/canvas_input.h"
 #include "apps/viewer/ui/panels.h"
+#include "apps/viewer/ui/session.h"
 #include "apps/viewer/ui/window.h"
 #include "core/scene/camera_path.h"
 #include "core/util/error.h"
@@ -34,9 +32,7 @@ namespace sl::viewer {
 
 namespace {
 
-constexpr float kClickSlop = 3.0f;       // pixels a click may move and still be a click (label pick)
-constexpr double kWheelSettle = 0.25;    // seconds after the last wheel notch that still count as zooming
-constexpr int kSettleFrames = 3;         // UI frames before a scripted screenshot: auto-sized windows settle
+constexpr int kSettleFrames = 3;  // UI frames before a scripted screenshot: auto-sized windows settle
 constexpr int kHistogramBins = 128;
 
 // Ctrl-C (or a SIGTERM) ends the loop normally, so a recorded camera path is still saved.
@@ -53,28 +49,6 @@ struct QuitSignals {
     std::signal(SIGINT, SIG_DFL);
     std::signal(SIGTERM, SIG_DFL);
   }
-};
-
-// Everything the loop edits, in one place; the panels get pointers into it.
-struct Session {
-  ViewSettings view;
-  std::optional<TfEditor> tf;
-  std::vector<float> histogram;
-  std::optional<LabelState> labels;
-  std::optional<OrbitController> orbit;
-  PathRecorder path;
-  PanelState panel;
-};
-
-// The frame on screen: what picking casts through, what the overlay describes.
-struct Shown {
-  bool valid = false;
-  Camera camera;
-  int width = 0;
-  int height = 0;
-  int level = 0;  // progressive level of the frame on screen
-  Stats stats;
-  std::string error;
 };
 
 // What the viewer wants rendered, apart from the resolution: when it differs from the last request,
@@ -112,17 +86,12 @@ struct FrameRecord {
   double shown_at = 0.0;  // seconds since the loop started, when the frame reached the screen
 };
 
-// Mouse gestures on the canvas (not over a panel).
-struct Drag {
-  int button = -1;  // 0 left, 1 right, 2 middle; -1 none
-  float moved = 0.0f;
-  double last_wheel = -1e9;
-};
-
 using ViewerScene = app::SourceScene;
 
 // Options checked before the (possibly slow) data load, so a typo fails at once.
 ViewSettings settings_from(const ViewerOptions& o, const app::CheckedOptions& checked) {
+  if (!o.screenshot.empty()) check_output_prefix(o.screenshot);
+  if (!o.record_path.empty()) check_output_prefix(o.record_path);
   ViewSettings v;
   v.render = checked.settings;
   if (!(o.scale > 0.0f && o.scale <= 1.0f)) throw InputError("--scale", "must be in (0, 1]");
@@ -185,79 +154,6 @@ void report(const std::vector<FrameRecord>& views, const std::optional<FrameReco
   std::printf("; last: %s\n", stats_summary(shown.stats).c_str());
 }
 
-// Toggles the label under the cursor: the first visible label along the pixel's ray goes off; where
-// no visible label is hit, the first hidden one along the ray comes back on.
-void pick(Session& s, const ViewerScene& sc, const Shown& shown, float u, float v) {
-  if (!s.labels || !sc.labels || !shown.valid) return;
-  const Volume& labels = *sc.labels;
-  LabelState& L = *s.labels;
-  const int px = int(u * float(shown.width));
-  const int py = int(v * float(shown.height));
-  const bool masked = L.masking() || s.view.render.mode == RenderMode::Labels;
-  std::uint32_t id = pick_label(labels, shown.camera, shown.width, shown.height, px, py,
-                                masked ? &L.enabled() : nullptr);
-  if (id == 0 && masked) id = pick_label(labels, shown.camera, shown.width, shown.height, px, py);
-  if (id == 0) {
-    s.panel.status = "no label under the cursor";
-    return;
-  }
-  const bool was_visible = !masked || L.is_enabled(id);
-  L.set_enabled(id, !was_visible);  // switches masking on: the toggle must show in dvr too
-  s.panel.search_id = int(id);
-  s.panel.status = "label " + std::to_string(id) + (was_visible ? " off" : " on");
-}
-
-void canvas_input(Session& s, Drag& d, const ViewerScene& sc, const Shown& shown, float x0, float w, float h,
-                  float pixel_ratio) {
-  ImGuiIO& io = ImGui::GetIO();
-  const ImVec2 m = io.MousePos;
-  const bool in_canvas = m.x >= x0 && m.x < x0 + w && m.y >= 0.0f && m.y < h;
-  OrbitController& orbit = *s.orbit;
-  if (!io.WantCaptureMouse && in_canvas) {
-    for (int b = 0; b < 3 && d.button < 0; ++b) {
-      if (ImGui::IsMouseClicked(b)) {
-        d.button = b;
-        d.moved = 0.0f;
-      }
-    }
-    if (io.MouseWheel != 0.0f) {
-      orbit.zoom(io.MouseWheel);
-      d.last_wheel = ImGui::GetTime();
-    }
-  }
-  if (d.button < 0) return;
-  const ImVec2 delta = io.MouseDelta;
-  d.moved += std::abs(delta.x) + std::abs(delta.y);
-  if (delta.x != 0.0f || delta.y != 0.0f) {
-    if (d.button == 2 || (d.button == 0 && io.KeyShift)) {
-      orbit.pan(delta.x * pixel_ratio, delta.y * pixel_ratio, int(h * pixel_ratio));
-    } else if (d.button == 0) {
-      orbit.orbit(delta.x, delta.y);
-    } else {
-      orbit.zoom(-delta.y * 0.05f);  // right drag: zoom for mice without a wheel
-    }
-  }
-  if (!io.MouseDown[d.button]) {
-    if (d.button == 0 && d.moved < kClickSlop && !io.KeyShift) pick(s, sc, shown, (m.x - x0) / w, m.y / h);
-    d.button = -1;
-  }
-}
-
-PanelActions key_input(Session& s) {
-  PanelActions a;
-  if (ImGui::GetIO().WantCaptureKeyboard) return a;
-  for (int key : {'1', '2', '3', '4', 'M', 'B', 'D', 'L', 'E', 'F', 'R', 'S', 'K'}) {
-    if (!ImGui::IsKeyPressed(key, false)) continue;
-    switch (apply_key(s.view, key)) {
-      case KeyAction::ResetView: a.reset_view = true; break;
-      case KeyAction::Screenshot: a.screenshot = true; break;
-      case KeyAction::Keyframe: a.keyframe = true; break;
-      default: break;
-    }
-  }
-  return a;
-}
-
 void save_screenshot(Window& win, const std::string& path, PanelState& st) {
   int w = 0, h = 0;
   const std::vector<std::uint8_t> px = win.read_back(w, h);
@@ -267,227 +163,354 @@ void save_screenshot(Window& win, const std::string& path, PanelState& st) {
   std::fflush(stdout);
 }
 
-}  // namespace
-
-int run_viewer(const ViewerOptions& o) {
-  // Everything that can be wrong with the input is checked before a window opens.
-  const app::CheckedOptions checked = app::check_render_options(o.render);
-  const ThreadLimit threads(o.render.threads);
-  if (!o.screenshot.empty()) check_output_prefix(o.screenshot);
-  if (!o.record_path.empty()) check_output_prefix(o.record_path);
-  Session s;
-  s.view = settings_from(o, checked);
-  const std::optional<CameraPath> replay =
-      o.path.empty() ? std::nullopt : std::optional<CameraPath>(load_camera_path(o.path));
-  const ViewerScene sc = app::load_source_scene(o.render.scene, o.render.out_of_core());
-  app::complete_settings(o.render, sc, s.view.render);  // same checks and iso default as `render`
-  s.view.has_labels = sc.labels != nullptr;  // labels mode and picking need the label voxels
-  s.view.out_of_core = sc.out_of_core();
-  const int canvas_w = s.view.render.width;
-  const int canvas_h = s.view.render.height;
-  std::string backend_notice;
-  const app::Backend backend = app::choose_backend(o.render.backend, &backend_notice);
-  std::unique_ptr<Window> win;  // declared before the worker: destroyed after it, so no frame wakes a closed GLFW
-  RenderWorker worker(sc.volume.get(), sc.labels.get(), make_renderer(sc, o, checked, backend), &Window::wake);
-  float lo = 0.0f, hi = 255.0f;
-  if (sc.volume) {
-    data_domain(*sc.volume, lo, hi);
-  } else if (sc.desc.type != VoxelType::U8) {
-    lo = sc.tf.vmin();
-    hi = sc.tf.vmax();
-  }
-  s.tf.emplace(sc.tf, lo, hi);
-  // A procedural source has no voxels in memory to count: its editor shows no histogram.
-  if (sc.volume) s.histogram = value_histogram(*sc.volume, kHistogramBins, s.tf->lo(), s.tf->hi());
-  if (sc.labels) s.labels.emplace(sc.label_count, sc.enabled);
-  s.orbit.emplace(sc.camera);
-  if (!o.render.scene.tf.empty()) s.panel.tf_file = o.render.scene.tf;
-  if (!o.record_path.empty()) s.panel.path_file = o.record_path;
-
-  try {
-    const std::string title = "sparseleap view: " + sc.name + (sc.out_of_core() ? " (out of core)" : "");
-    win = std::make_unique<Window>(canvas_w + int(kPanelWidth), canvas_h, title);
-  } catch (const WindowError& e) {
-    std::fprintf(stderr, "sparseleap: error: view: %s\n", e.what());
-    return 1;
-  }
-  if (!backend_notice.empty()) std::fputs(backend_notice.c_str(), stderr);  // all checks passed
-  FrameTexture texture;
-
-  const bool scripted = o.frames > 0 || !o.screenshot.empty() || replay.has_value();
-  const int views_wanted = replay ? replay->frames : o.frames > 0 ? o.frames : 3;
-  int views_submitted = 0, settle = kSettleFrames;
-  bool in_flight = false;  // scripted runs: one job at a time, each a real frame
-  std::uint64_t refine_id = 0;
+// A scripted run (--frames, --screenshot, --path): a fixed number of views, one job at a time so each
+// is a real frame, then the refinement of the last view when it was coarse, then exit.
+struct Script {
+  bool on = false;
+  int views_wanted = 0;
+  int views_submitted = 0;
+  int settle = kSettleFrames;
+  bool in_flight = false;
+  std::uint64_t refine_id = 0;  // the refinement's job (0: not submitted)
   std::vector<FrameRecord> views;
   std::optional<FrameRecord> refined;
-  ProgressiveLevels levels(s.view.frame_budget_ms);
-  FrameRate rate;
-  std::shared_ptr<const TransferFunction> tf_snap;
+};
+
+// What was handed to the render worker: snapshots of the edited transfer function and label set
+// (rebuilt only when their revision changes) and the last request.
+struct Requests {
+  std::shared_ptr<const TransferFunction> tf;
   std::uint64_t tf_rev = ~std::uint64_t(0);
-  std::shared_ptr<const LabelSet> label_snap;
+  std::shared_ptr<const LabelSet> labels;
   std::uint64_t label_rev = ~std::uint64_t(0);
   std::optional<Wanted> last_wanted;
   int last_level = 0;  // of the last job submitted
   std::uint64_t next_id = 1;
-  Shown shown;
-  Drag drag;
-  bool interacting = false;
-  const auto clock_start = std::chrono::steady_clock::now();
-  const auto seconds = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start).count();
-  };
+};
 
+// The viewer: set up (options, data, render worker, then the window), then a loop of UI frames, each
+// receiving the worker's newest frame, presenting it with the panels, taking input, and submitting
+// the frame wanted next.
+class Viewer {
+ public:
+  // Everything that can be wrong with the input is checked (InputError) before a window opens.
+  explicit Viewer(const ViewerOptions& o);
+  // False, having said why, when no window can open (no display, no GL context).
+  bool open_window();
+  // Runs until the window closes, Ctrl-C, or a scripted run ends; returns the exit code.
+  int run();
+
+ private:
+  void init_editors();
+  bool receive();
+  Canvas canvas() const;
+  PanelActions present(const Canvas& c, bool busy);
+  void draw_overlay(const Canvas& c, bool busy);
+  PanelActions input(const Canvas& c, PanelActions a);
+  void save_path();
+  void submit(const Canvas& c);
+  void submit_scripted(const Canvas& c);
+  void submit_interactive(const Canvas& c);
+  Wanted wanted(const Camera& camera, const Canvas& c) const;
+  void send(const Wanted& w, int level, std::uint64_t id);
+  int moving_level() const { return s_.view.progressive ? levels_.moving_level() : 0; }
+  bool end_ui_frame(const PanelActions& a);
+  bool script_done();
+  void finish();
+  double seconds() const {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - clock_start_).count();
+  }
+
+  const ViewerOptions& o_;
+  const app::CheckedOptions checked_;
+  const ThreadLimit threads_;
+  Session s_;
+  const std::optional<CameraPath> replay_;
+  const ViewerScene scene_;
+  std::string backend_notice_;  // printed once the window is open: bad input stays one line
+  app::Backend backend_ = app::Backend::Cpu;
+  std::unique_ptr<Window> win_;  // declared before the worker: destroyed after it, so no frame wakes a closed GLFW
+  std::optional<RenderWorker> worker_;  // started once the settings are complete
+  FrameTexture texture_;  // declared after the window: its GL texture is deleted while the context lives
+  Script script_;
+  ProgressiveLevels levels_;
+  FrameRate rate_;
+  Requests req_;
+  Shown shown_;
+  Drag drag_;
+  bool interacting_ = false;
+  std::chrono::steady_clock::time_point clock_start_;
+};
+
+Viewer::Viewer(const ViewerOptions& o)
+    : o_(o),
+      checked_(app::check_render_options(o.render)),
+      threads_(o.render.threads),
+      s_(settings_from(o, checked_)),
+      replay_(o.path.empty() ? std::nullopt : std::optional<CameraPath>(load_camera_path(o.path))),
+      scene_(app::load_source_scene(o.render.scene, o.render.out_of_core())),
+      levels_(s_.view.frame_budget_ms) {
+  app::complete_settings(o.render, scene_, s_.view.render);  // same checks and iso default as `render`
+  s_.view.has_labels = scene_.labels != nullptr;  // labels mode and picking need the label voxels
+  s_.view.out_of_core = scene_.out_of_core();
+  backend_ = app::choose_backend(o.render.backend, &backend_notice_);
+  worker_.emplace(scene_.volume.get(), scene_.labels.get(), make_renderer(scene_, o, checked_, backend_),
+                  &Window::wake);
+  init_editors();
+  script_.on = o.frames > 0 || !o.screenshot.empty() || replay_.has_value();
+  script_.views_wanted = replay_ ? replay_->frames : o.frames > 0 ? o.frames : 3;
+}
+
+void Viewer::init_editors() {
+  float lo = 0.0f, hi = 255.0f;
+  if (scene_.volume) {
+    data_domain(*scene_.volume, lo, hi);
+  } else if (scene_.desc.type != VoxelType::U8) {
+    lo = scene_.tf.vmin();
+    hi = scene_.tf.vmax();
+  }
+  s_.tf.emplace(scene_.tf, lo, hi);
+  // A procedural source has no voxels in memory to count: its editor shows no histogram.
+  if (scene_.volume) s_.histogram = value_histogram(*scene_.volume, kHistogramBins, s_.tf->lo(), s_.tf->hi());
+  if (scene_.labels) s_.labels.emplace(scene_.label_count, scene_.enabled);
+  s_.orbit.emplace(scene_.camera);
+  if (!o_.render.scene.tf.empty()) s_.panel.tf_file = o_.render.scene.tf;
+  if (!o_.record_path.empty()) s_.panel.path_file = o_.record_path;
+}
+
+bool Viewer::open_window() {
+  try {
+    const std::string title = "sparseleap view: " + scene_.name + (scene_.out_of_core() ? " (out of core)" : "");
+    win_ = std::make_unique<Window>(s_.view.render.width + int(kPanelWidth), s_.view.render.height, title);
+  } catch (const WindowError& e) {
+    std::fprintf(stderr, "sparseleap: error: view: %s\n", e.what());
+    return false;
+  }
+  if (!backend_notice_.empty()) std::fputs(backend_notice_.c_str(), stderr);  // all checks passed
+  return true;
+}
+
+int Viewer::run() {
+  clock_start_ = std::chrono::steady_clock::now();
   const QuitSignals quit_signals;
-  while (!win->should_close() && !g_quit) {
-    const bool busy = !worker.idle();
+  while (!win_->should_close() && !g_quit) {
+    const bool busy = !worker_->idle();
     // The worker wakes the loop when a frame is done, so waiting long costs no latency; a short
     // timeout only while the user interacts keeps ImGui's own feedback smooth.
-    win->begin_frame(interacting ? 0.016 : 0.1);
-    ImGuiIO& io = ImGui::GetIO();
-
-    if (std::optional<RenderResult> r = worker.take()) {
-      const double now = seconds();
-      in_flight = false;
-      if (r->error.empty()) {
-        texture.upload(r->width, r->height, r->rgba8);
-        // Metadata is computed once and cached (DESIGN.md §3): it says nothing about later frames.
-        levels.observe(r->level, r->worker_ms - r->stats.time_ms.metadata);
-        rate.tick(now);
-        const FrameRecord rec{r->level, r->stats.time_ms.total, now};
-        if (scripted && r->id == refine_id) {
-          refined = rec;
-        } else if (scripted) {
-          views.push_back(rec);
-        }
-        shown = Shown{true, r->camera, r->width, r->height, r->level, std::move(r->stats), {}};
-      } else {
-        shown.error = r->error;
-        if (scripted) {
-          std::fprintf(stderr, "sparseleap: error: view: %s\n", r->error.c_str());
-          return 1;
-        }
-      }
-    }
-
-    const float win_w = io.DisplaySize.x, win_h = io.DisplaySize.y;
-    const float ratio = win->pixel_ratio();
-    const float x0 = kPanelWidth;
-    const float cw = std::max(win_w - x0, 1.0f), ch = std::max(win_h, 1.0f);
-
-    PanelModel model{&s.view, &*s.tf, &s.histogram, s.labels ? &*s.labels : nullptr, &s.path,
-                     shown.valid ? &shown.stats : nullptr};
-    PanelActions a = draw_control_panel(model, s.panel, kPanelWidth, win_h);
-    if (!texture.empty()) {
-      ImGui::GetBackgroundDrawList()->AddImage(texture.imgui_id(), ImVec2(x0, 0.0f), ImVec2(x0 + cw, ch));
-    }
-    {
-      OverlayInfo info{io.Framerate, shown.width, shown.height, shown.level, busy,
-                       shown.valid ? pending_loads(shown.stats) : 0, shown.error};
-      std::vector<StatRow> rows;
-      if (s.view.show_stats) {
-        rows = stats_rows(shown.stats);
-        for (StatRow& row : progressive_rows(s.view.progressive, shown.level, rate.fps(seconds()),
-                                             s.view.frame_budget_ms)) {
-          rows.push_back(std::move(row));
-        }
-      }
-      draw_stats_overlay(rows, info, win_w, 0.0f, s.view.show_stats);
-    }
-    if (!scripted) canvas_input(s, drag, sc, shown, x0, cw, ch, ratio);
-    const PanelActions keys = key_input(s);
-    if (a.reset_view || keys.reset_view) s.orbit->reset();
-    if (a.keyframe || keys.keyframe) {
-      s.panel.status = s.path.add(s.orbit->camera()) ? "keyframe " + std::to_string(s.path.size())
-                                                     : "keyframe unchanged: not added";
-    }
-    s.path.tick(ImGui::GetTime(), s.orbit->camera());
-    if (a.save_path) {
-      try {
-        s.path.save(s.panel.path_file);
-        s.panel.status = "saved " + s.panel.path_file + " (" + std::to_string(s.path.size()) + " keyframes)";
-      } catch (const std::exception& e) {
-        s.panel.status = e.what();
-      }
-    }
-
-    // The frame wanted now: a changed view is rendered at the moving level first, the full-resolution
-    // frame once it is still.
-    if (s.tf->revision() != tf_rev) {
-      tf_snap = std::make_shared<const TransferFunction>(s.tf->build());
-      tf_rev = s.tf->revision();
-    }
-    if (s.labels && s.labels->revision() != label_rev) {
-      label_snap = std::make_shared<const LabelSet>(s.labels->enabled());
-      label_rev = s.labels->revision();
-    }
-    interacting = !scripted && (drag.button >= 0 || ImGui::GetTime() - drag.last_wheel < kWheelSettle || a.dragging);
-    const auto wanted = [&](const Camera& camera) {
-      Wanted w;
-      w.camera = camera;
-      w.settings = s.view.render;
-      w.settings.width = std::max(1, int(std::lround(cw * ratio * s.view.scale)));
-      w.settings.height = std::max(1, int(std::lround(ch * ratio * s.view.scale)));
-      w.tf = tf_snap;
-      // Labels mode always gets the set (else the renderer scans the label volume for "all" per frame).
-      const bool use_labels = s.labels && (s.labels->masking() || w.settings.mode == RenderMode::Labels);
-      w.enabled = use_labels ? label_snap : nullptr;
-      return w;
-    };
-    const auto submit = [&](const Wanted& w, int level, std::uint64_t id) {
-      worker.submit(job_at(w, level, id));
-      last_wanted = w;
-      last_level = level;
-    };
-    const auto moving_level = [&] { return s.view.progressive ? levels.moving_level() : 0; };
-    if (scripted) {
-      // Every view is one frame, so the run measures what a user orbiting at this rate sees; a view
-      // that differs from the previous one is a moving frame. The last view is then refined.
-      if (!in_flight && views_submitted < views_wanted) {
-        if (!replay && views_submitted > 0 && o.spin != 0.0f) {
-          s.orbit->orbit(o.spin * 3.14159265f / 180.0f / OrbitController::kRadiansPerPixel, 0.0f);
-        }
-        const Wanted w = wanted(replay ? replay->at(views_submitted) : s.orbit->camera());
-        const bool moving = last_wanted && !same_wanted(w, *last_wanted);
-        submit(w, moving ? moving_level() : 0, next_id++);
-        ++views_submitted;
-        in_flight = true;
-      } else if (!in_flight && last_level > 0 && refine_id == 0) {
-        refine_id = next_id++;
-        submit(*last_wanted, 0, refine_id);
-        in_flight = true;
-      }
-    } else {
-      const Wanted w = wanted(s.orbit->camera());
-      switch (next_submission(!last_wanted || !same_wanted(w, *last_wanted), interacting, last_level, worker.idle(),
-                              shown.valid && shown.level == 0 && still_refining(shown.stats))) {
-        case Submission::Changed: submit(w, moving_level(), next_id++); break;
-        case Submission::Refine:
-        case Submission::Repeat: submit(w, 0, next_id++); break;
-        case Submission::None: break;
-      }
-    }
-
-    win->end_frame();
-    if (a.screenshot || keys.screenshot) {
-      try {
-        save_screenshot(*win, next_screenshot_name("."), s.panel);
-      } catch (const std::exception& e) {
-        s.panel.status = e.what();
-      }
-    }
-    if (scripted && int(views.size()) >= views_wanted && !in_flight && last_level == 0 && --settle <= 0) {
-      if (!o.screenshot.empty()) save_screenshot(*win, o.screenshot, s.panel);
-      break;
-    }
-    win->swap();
+    win_->begin_frame(interacting_ ? 0.016 : 0.1);
+    if (!receive()) return 1;
+    const Canvas c = canvas();
+    // The panels come first: ImGui reports their buttons as it draws them, and the canvas takes only
+    // the mouse input the panels leave.
+    const PanelActions actions = input(c, present(c, busy));
+    submit(c);
+    if (!end_ui_frame(actions)) break;
   }
-  if (!o.record_path.empty() && s.path.size() > 0) {
-    s.path.save(o.record_path);
-    std::printf("view: saved %s (%zu keyframes)\n", o.record_path.c_str(), s.path.size());
-  }
-  report(views, refined, shown);
+  finish();
   return 0;
+}
+
+// The worker's newest frame, if one finished: onto the texture, into the frame-time model and the
+// scripted run's records. False when a scripted run's frame failed (the error is printed).
+bool Viewer::receive() {
+  std::optional<RenderResult> r = worker_->take();
+  if (!r) return true;
+  const double now = seconds();
+  script_.in_flight = false;
+  if (!r->error.empty()) {
+    shown_.error = r->error;
+    if (!script_.on) return true;
+    std::fprintf(stderr, "sparseleap: error: view: %s\n", r->error.c_str());
+    return false;
+  }
+  texture_.upload(r->width, r->height, r->rgba8);
+  // Metadata is computed once and cached (DESIGN.md "Data model"): it says nothing about later frames.
+  levels_.observe(r->level, r->worker_ms - r->stats.time_ms.metadata);
+  rate_.tick(now);
+  const FrameRecord rec{r->level, r->stats.time_ms.total, now};
+  if (script_.on && r->id == script_.refine_id) {
+    script_.refined = rec;
+  } else if (script_.on) {
+    script_.views.push_back(rec);
+  }
+  shown_ = Shown{true, r->camera, r->width, r->height, r->level, std::move(r->stats), {}};
+  return true;
+}
+
+Canvas Viewer::canvas() const {
+  const ImGuiIO& io = ImGui::GetIO();
+  Canvas c;
+  c.window_w = io.DisplaySize.x;
+  c.window_h = io.DisplaySize.y;
+  c.pixel_ratio = win_->pixel_ratio();
+  c.w = std::max(c.window_w - c.x0, 1.0f);
+  c.h = std::max(c.window_h, 1.0f);
+  return c;
+}
+
+// The control panel, the frame on screen stretched over the canvas, the stats overlay; returns the
+// panel's buttons.
+PanelActions Viewer::present(const Canvas& c, bool busy) {
+  PanelModel model{&s_.view, &*s_.tf, &s_.histogram, s_.labels ? &*s_.labels : nullptr, &s_.path,
+                   shown_.valid ? &shown_.stats : nullptr};
+  const PanelActions a = draw_control_panel(model, s_.panel, kPanelWidth, c.window_h);
+  if (!texture_.empty()) {
+    ImGui::GetBackgroundDrawList()->AddImage(texture_.imgui_id(), ImVec2(c.x0, 0.0f), ImVec2(c.x0 + c.w, c.h));
+  }
+  draw_overlay(c, busy);
+  return a;
+}
+
+void Viewer::draw_overlay(const Canvas& c, bool busy) {
+  OverlayInfo info{ImGui::GetIO().Framerate, shown_.width, shown_.height, shown_.level, busy,
+                   shown_.valid ? pending_loads(shown_.stats) : 0, shown_.error};
+  std::vector<StatRow> rows;
+  if (s_.view.show_stats) {
+    rows = stats_rows(shown_.stats);
+    for (StatRow& row : progressive_rows(s_.view.progressive, shown_.level, rate_.fps(seconds()),
+                                         s_.view.frame_budget_ms)) {
+      rows.push_back(std::move(row));
+    }
+  }
+  draw_stats_overlay(rows, info, c.window_w, 0.0f, s_.view.show_stats);
+}
+
+// Mouse on the canvas (interactive runs), keys, and what the panel's buttons and the keys ask for.
+// Returns the panel's actions with the keys' added.
+PanelActions Viewer::input(const Canvas& c, PanelActions a) {
+  if (!script_.on) canvas_input(s_, drag_, scene_.labels.get(), shown_, c);
+  const PanelActions keys = key_input(s_);
+  a.reset_view = a.reset_view || keys.reset_view;
+  a.keyframe = a.keyframe || keys.keyframe;
+  a.screenshot = a.screenshot || keys.screenshot;
+  if (a.reset_view) s_.orbit->reset();
+  if (a.keyframe) {
+    s_.panel.status = s_.path.add(s_.orbit->camera()) ? "keyframe " + std::to_string(s_.path.size())
+                                                      : "keyframe unchanged: not added";
+  }
+  s_.path.tick(ImGui::GetTime(), s_.orbit->camera());
+  if (a.save_path) save_path();
+  interacting_ = !script_.on && (drag_.active(ImGui::GetTime()) || a.dragging);
+  return a;
+}
+
+void Viewer::save_path() {
+  try {
+    s_.path.save(s_.panel.path_file);
+    s_.panel.status = "saved " + s_.panel.path_file + " (" + std::to_string(s_.path.size()) + " keyframes)";
+  } catch (const std::exception& e) {
+    s_.panel.status = e.what();
+  }
+}
+
+// The frame wanted now: a changed view is rendered at the moving level first, the full-resolution
+// frame once it is still.
+void Viewer::submit(const Canvas& c) {
+  if (s_.tf->revision() != req_.tf_rev) {
+    req_.tf = std::make_shared<const TransferFunction>(s_.tf->build());
+    req_.tf_rev = s_.tf->revision();
+  }
+  if (s_.labels && s_.labels->revision() != req_.label_rev) {
+    req_.labels = std::make_shared<const LabelSet>(s_.labels->enabled());
+    req_.label_rev = s_.labels->revision();
+  }
+  if (script_.on) {
+    submit_scripted(c);
+  } else {
+    submit_interactive(c);
+  }
+}
+
+// Every view is one frame, so the run measures what a user orbiting at this rate sees; a view that
+// differs from the previous one is a moving frame. The last view is then refined.
+void Viewer::submit_scripted(const Canvas& c) {
+  if (script_.in_flight) return;
+  if (script_.views_submitted < script_.views_wanted) {
+    if (!replay_ && script_.views_submitted > 0 && o_.spin != 0.0f) {
+      s_.orbit->orbit(o_.spin * 3.14159265f / 180.0f / OrbitController::kRadiansPerPixel, 0.0f);
+    }
+    const Wanted w = wanted(replay_ ? replay_->at(script_.views_submitted) : s_.orbit->camera(), c);
+    const bool moving = req_.last_wanted && !same_wanted(w, *req_.last_wanted);
+    send(w, moving ? moving_level() : 0, req_.next_id++);
+    ++script_.views_submitted;
+    script_.in_flight = true;
+  } else if (req_.last_level > 0 && script_.refine_id == 0) {
+    script_.refine_id = req_.next_id++;
+    send(*req_.last_wanted, 0, script_.refine_id);
+    script_.in_flight = true;
+  }
+}
+
+void Viewer::submit_interactive(const Canvas& c) {
+  const Wanted w = wanted(s_.orbit->camera(), c);
+  const bool changed = !req_.last_wanted || !same_wanted(w, *req_.last_wanted);
+  const bool still_loading = shown_.valid && shown_.level == 0 && still_refining(shown_.stats);
+  switch (next_submission(changed, interacting_, req_.last_level, worker_->idle(), still_loading)) {
+    case Submission::Changed: send(w, moving_level(), req_.next_id++); break;
+    case Submission::Refine:
+    case Submission::Repeat: send(w, 0, req_.next_id++); break;
+    case Submission::None: break;
+  }
+}
+
+Wanted Viewer::wanted(const Camera& camera, const Canvas& c) const {
+  Wanted w;
+  w.camera = camera;
+  w.settings = s_.view.render;
+  w.settings.width = std::max(1, int(std::lround(c.w * c.pixel_ratio * s_.view.scale)));
+  w.settings.height = std::max(1, int(std::lround(c.h * c.pixel_ratio * s_.view.scale)));
+  w.tf = req_.tf;
+  // Labels mode always gets the set (else the renderer scans the label volume for "all" per frame).
+  const bool use_labels = s_.labels && (s_.labels->masking() || w.settings.mode == RenderMode::Labels);
+  w.enabled = use_labels ? req_.labels : nullptr;
+  return w;
+}
+
+void Viewer::send(const Wanted& w, int level, std::uint64_t id) {
+  worker_->submit(job_at(w, level, id));
+  req_.last_wanted = w;
+  req_.last_level = level;
+}
+
+// Draws the UI and saves the screenshots asked for. False ends the loop: a scripted run is done (its
+// screenshot saved); else the window is shown and the loop goes on.
+bool Viewer::end_ui_frame(const PanelActions& a) {
+  win_->end_frame();
+  if (a.screenshot) {
+    try {
+      save_screenshot(*win_, next_screenshot_name("."), s_.panel);
+    } catch (const std::exception& e) {
+      s_.panel.status = e.what();
+    }
+  }
+  if (script_done()) {
+    if (!o_.screenshot.empty()) save_screenshot(*win_, o_.screenshot, s_.panel);
+    return false;
+  }
+  win_->swap();
+  return true;
+}
+
+// Every view shown at full resolution, and a few more UI frames so auto-sized windows settle.
+bool Viewer::script_done() {
+  return script_.on && int(script_.views.size()) >= script_.views_wanted && !script_.in_flight &&
+         req_.last_level == 0 && --script_.settle <= 0;
+}
+
+void Viewer::finish() {
+  if (!o_.record_path.empty() && s_.path.size() > 0) {
+    s_.path.save(o_.record_path);
+    std::printf("view: saved %s (%zu keyframes)\n", o_.record_path.c_str(), s_.path.size());
+  }
+  report(script_.views, script_.refined, shown_);
+}
+
+}  // namespace
+
+int run_viewer(const ViewerOptions& o) {
+  Viewer viewer(o);
+  if (!viewer.open_window()) return 1;
+  return viewer.run();
 }
 
 }  // namespace sl::viewer

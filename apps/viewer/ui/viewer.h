@@ -1,4 +1,4 @@
-// `sparseleap view`: the interactive window (DESIGN.md §9). Options come from apps/view_cmd.cpp.
+// `sparseleap view`: the interactive window (DESIGN.md "Programs"). Options come from apps/view_cmd.cpp.
 #pragma once
 
 #include <string>
