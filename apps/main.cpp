@@ -1,5 +1,5 @@
 // sparseleap: out-of-core, ray-guided volume rendering with SparseLeap empty-space skipping.
-// Errors in input are caught here once and printed as one line with a non-zero exit (DESIGN.md §10).
+// Errors in input are caught here once and printed as one line with a non-zero exit (DESIGN.md "Conventions").
 #include <cstdio>
 #include <exception>
 #include <map>

@@ -1,4 +1,4 @@
-// The harness of the bad-input corpus (issue 15), shared by the bad_input_*_test.cpp files, one per
+// The harness of the bad-input corpus, shared by the bad_input_*_test.cpp files, one per
 // format: broken inputs made from our own writers (or a few lines of header bytes) plus a byte edit,
 // each run as a user or a script would run it. Every case must end with the expected exit status (1
 // bad input or data, 2 command-line syntax), exactly one line on stderr that names the file or option

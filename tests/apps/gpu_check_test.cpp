@@ -1,7 +1,7 @@
-// scripts/gpu-check without a GPU: --dry-run must run every part that needs none (the CPU renders of
-// every method and mode in and out of core, the image comparison on CPU against CPU with one thread,
-// its self-check on two images that differ, the CPU bench) and say what it skipped; bad arguments are
-// one line and exit 2; without a GPU the real check fails at once, saying so. The GPU half runs only on a machine with an NVIDIA GPU (README, gpu-check).
+// scripts/gpu-check without a GPU: --dry-run must run every part that needs none (the CPU renders of every method
+// and mode in and out of core, the image comparison on CPU against CPU with one thread, its self-check on two
+// images that differ, the CPU bench) and say what it skipped; bad arguments are one line and exit 2; without a GPU
+// the real check fails at once, saying so. The GPU half runs only on a machine with an NVIDIA GPU (docs/cuda.md).
 #include <gtest/gtest.h>
 
 #include <algorithm>

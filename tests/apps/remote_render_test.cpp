@@ -1,4 +1,4 @@
-// `render` of OME-Zarr stores over HTTP (issue 16), against the tests' own server on 127.0.0.1
+// `render` of OME-Zarr stores over HTTP, against the tests' own server on 127.0.0.1
 // (tests/data_tools/http_server.py): the same PNG as from the local directory (Zarr v2, v3 sharded),
 // with the remote summary line; --disk-cache serves a second run without chunk requests; under a
 // fault server (500s, dropped connections, truncated ranges, stalls) the render completes, retries are
