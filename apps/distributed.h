@@ -1,9 +1,9 @@
 // `--distributed` (DESIGN.md §11): sort-last rendering under mpirun. Every rank opens the same volume
 // source and runs the ordinary out-of-core renderer on its region of a k-d split of the brick grid
-// (core/frame/kd_regions.h), balanced on the estimated work (cache/work_estimate.h); rays sample the global
-// per-ray grid clipped to the region (core/cast/sample_clip.h); IceT composites the premultiplied float
-// RGBA in the regions' front-to-back order for the camera, and rank 0 writes the outputs. The thin
-// MPI + IceT layer; built only with SL_MPI (apps/CMakeLists.txt).
+// (core/frame/kd_regions.h), balanced on the estimated work (cache/out_of_core/work_estimate.h); rays
+// sample the global per-ray grid clipped to the region (core/cast/sample_clip.h); IceT composites the
+// premultiplied float RGBA in the regions' front-to-back order for the camera, and rank 0 writes the
+// outputs. The thin MPI + IceT layer; built only with SL_MPI (apps/CMakeLists.txt).
 //
 // Early ray termination (--ert) cannot be exact across ranks: a rank stops its rays when its own
 // partial opacity reaches the threshold, not the composited one, so a rank behind an opaque one

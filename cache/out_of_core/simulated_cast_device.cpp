@@ -1,4 +1,4 @@
-#include "cache/simulated_cast_device.h"
+#include "cache/out_of_core/simulated_cast_device.h"
 
 #include <algorithm>
 #include <cstring>

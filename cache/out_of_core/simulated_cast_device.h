@@ -12,7 +12,7 @@
 #include <memory>
 #include <vector>
 
-#include "cache/cast_device.h"
+#include "cache/out_of_core/cast_device.h"
 
 namespace sl {
 
