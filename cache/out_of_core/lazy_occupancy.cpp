@@ -132,7 +132,7 @@ bool LazyOccupancy::refined_by_loading(BrickId id) const {
   return tree_.is_leaf(n) && int(tree_.node(n).depth) < tree_.levels() - id.level() && !has_metadata(id);
 }
 
-bool LazyOccupancy::apply_cached_metadata(BrickId id) {
+bool LazyOccupancy::apply_cached_metadata_if_complete(BrickId id) {
   if (!has_metadata(id)) return false;
   for_each_culling_block(id, [&](ivec3 c) {
     const std::uint64_t key = BrickId::pack(id.level(), c).bits;
@@ -141,7 +141,7 @@ bool LazyOccupancy::apply_cached_metadata(BrickId id) {
   return true;
 }
 
-void LazyOccupancy::apply_known_metadata(BrickId id) {
+void LazyOccupancy::apply_cached_metadata(BrickId id) {
   for_each_culling_block(id, [&](ivec3 c) {
     const std::uint64_t key = BrickId::pack(id.level(), c).bits;
     if (const BlockMetadata* m = metadata_.find(key, frame_)) apply_metadata(key, *m);

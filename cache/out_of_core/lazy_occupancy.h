@@ -48,9 +48,9 @@ class LazyOccupancy {
 
   // Applies the brick's cached metadata to the tree if all of them are cached (regrowing a retired or
   // re-culled region without touching the data); returns whether they were.
-  bool apply_cached_metadata(BrickId id);
+  bool apply_cached_metadata_if_complete(BrickId id);
   // Applies those of the brick's culling blocks whose metadata are cached.
-  void apply_known_metadata(BrickId id);
+  void apply_cached_metadata(BrickId id);
   // Marks a brick as loaded for its metadata; returns false if it already was.
   bool request_metadata(BrickId id);
   // Whether a collected brick was loaded for its metadata (and clears the request).

@@ -52,7 +52,9 @@ void OutOfCoreRenderer::resolve_miss(BrickId id, MissResolution& res, MissLoads&
   const OccupancyClass cls = occupancy_.brick_class(id);
   if (cls == OccupancyClass::Unknown) {
     // Cached metadata regrow a retired or re-culled region without touching the data.
-    if (!occupancy_.apply_cached_metadata(id) && occupancy_.request_metadata(id)) loads.metadata.push_back(id);
+    if (!occupancy_.apply_cached_metadata_if_complete(id) && occupancy_.request_metadata(id)) {
+      loads.metadata.push_back(id);
+    }
     return;
   }
   const PageEntry e = residency_.page_table().get(id);

@@ -108,7 +108,7 @@ OutOfCoreRenderer::MissResolution OutOfCoreRenderer::answer_last_frame() {
   make_loads_resident();
   MissResolution resolved = resolve_misses();
   for (const BrickId id : prefetch_.take_sampled_unapplied()) {
-    occupancy_.apply_known_metadata(id);
+    occupancy_.apply_cached_metadata(id);
     resolved.changed = true;
   }
   pressure_.adapt(residency_.slots_used_last() + resolved.loadable, residency_.cache().slot_count(),

@@ -87,10 +87,13 @@ class OutOfCoreRenderer {
     std::uint64_t evictions = 0;
     bool waiting = false;  // the frame's own loads were in flight
   };
+  // The steps of render(), in order.
   void validate(const RenderSettings& s) const;
   void begin_culling(const OutOfCoreScene& scene, const RenderSettings& s);
+  // Resets the per-frame counts of every part and notes the cache's state as the frame begins.
   FrameStart start_frame(const OutOfCoreScene& scene, const RenderSettings& s);
   MissResolution answer_last_frame();
+  // (loads_and_misses.cpp)
   void make_loads_resident();
   void take_loaded_brick(LoadedBrick&& b);
   MissResolution resolve_misses();
@@ -106,6 +109,7 @@ class OutOfCoreRenderer {
   void cast(const OutOfCoreScene& scene, const RenderSettings& s, const RayGenerator& gen, const FrameLod& lod,
             const SkipInputs& skip, Frame& frame);
   void touch_used_bricks();
+  // (cache_stats.cpp)
   void fill_cache_stats(const FrameStart& start, const FrameLod& lod, Stats& st);
   void count_used_slots(CacheStats& c);
   void count_loader(CacheStats& c) const;
