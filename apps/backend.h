@@ -6,8 +6,8 @@
 #include <memory>
 #include <string>
 
-#include "cache/cast_device.h"
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/cast_device.h"
+#include "cache/out_of_core/renderer.h"
 #include "core/frame/in_core_renderer.h"
 
 namespace sl::app {

@@ -12,7 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "apps/commands.h"
-#include "cache/work_estimate.h"
+#include "cache/out_of_core/work_estimate.h"
 #include "core/util/error.h"
 #include "core/util/process_memory.h"
 #include "core/scene/render_mode.h"

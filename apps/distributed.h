@@ -1,6 +1,6 @@
 // `--distributed` (DESIGN.md "Beyond one machine"): sort-last rendering under mpirun. Every rank opens
 // the same volume source and runs the ordinary out-of-core renderer on its region of a k-d split of
-// the brick grid (core/frame/kd_regions.h), balanced on the estimated work (cache/work_estimate.h);
+// the brick grid (core/frame/kd_regions.h), balanced on the estimated work (cache/out_of_core/work_estimate.h);
 // rays sample the global per-ray grid clipped to the region (core/cast/sample_clip.h); IceT composites
 // the premultiplied float RGBA in the regions' front-to-back order for the camera, and rank 0 writes
 // the outputs. The thin MPI + IceT layer; built only with SL_MPI (apps/CMakeLists.txt).
@@ -114,11 +114,11 @@ struct PeerFailed : std::exception {
   const char* what() const noexcept override { return "another rank failed"; }
 };
 
-// Runs body(d) on every rank of the MPI job (standard output only on rank 0). A rank that throws joins the next agree() of the others
-// with its error (every collective step of Distributed starts with one), so all ranks leave without
-// a hang; rank 0 prints the first failing rank's error once (report_error), then every rank meets at
-// a barrier and returns non-zero (rank 0 its error's exit code, the others 1), so mpirun's abort on
-// a non-zero exit cannot cut rank 0 off before its line is out.
+// Runs body(d) on every rank of the MPI job (standard output only on rank 0). A rank that throws joins the next
+// agree() of the others with its error (every collective step of Distributed starts with one), so all ranks leave
+// without a hang; rank 0 prints the first failing rank's error once (report_error), then every rank meets at a
+// barrier and returns non-zero (rank 0 its error's exit code, the others 1), so mpirun's abort on a non-zero exit
+// cannot cut rank 0 off before its line is out.
 int run_distributed(const std::function<int(Distributed&)>& body);
 
 }  // namespace sl::app

@@ -8,7 +8,7 @@
 #include <cstdlib>
 #include <regex>
 
-#include "cache/fault_injection.h"
+#include "cache/testing/fault_injection.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "core/util/error.h"
 

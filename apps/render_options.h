@@ -9,7 +9,7 @@
 
 #include "apps/backend.h"
 #include "apps/scene_loader.h"
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 #include "core/frame/frame.h"
 
 namespace CLI {

@@ -3,7 +3,7 @@
 #include <cstdio>
 #include <regex>
 
-#include "cache/fault_injection.h"
+#include "cache/testing/fault_injection.h"
 #include "core/scene/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "cache/formats/counting_byte_store.h"

@@ -27,7 +27,7 @@ struct SceneOptions {
   std::string tf;       // transfer-function JSON; empty = default for the data
   std::string camera;   // camera JSON; empty = default view
   std::string enable;   // enabled-label spec; empty = no label mask
-  std::string inject_faults;  // out of core: a fault spec (cache/fault_injection.h); empty = none
+  std::string inject_faults;  // out of core: a fault spec (cache/testing/fault_injection.h); empty = none
   std::string disk_cache;          // --disk-cache: on-disk cache of remote store objects; empty = none
   std::size_t disk_cache_mb = 0;   // its bound (0: the default, 1024)
 };

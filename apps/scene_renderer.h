@@ -8,7 +8,7 @@
 #include "apps/backend.h"
 #include "apps/render_options.h"
 #include "apps/scene_loader.h"
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 
 namespace sl::app {
 

@@ -1,4 +1,4 @@
-// Multiresolution bricked volume layout (DESIGN.md §3) and the 64-bit brick id the ray caster reports
+// Multiresolution bricked volume layout (DESIGN.md "Data model") and the 64-bit brick id the ray caster reports
 // in its unified misses (paper §8.2). Plain data, compiled by the CPU backend and by nvcc.
 //
 // Conventions (they make level-of-detail sampling consistent across levels):

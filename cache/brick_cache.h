@@ -1,7 +1,7 @@
-// Brick cache (DESIGN.md §4): a fixed pool of slots, each one (B + 2)³ brick of the voxel type (plus
-// its labels when the volume has them), held in two contiguous slabs on the CPU (a 3D atlas on CUDA).
-// Sized once from a memory budget (--cache-mb). Replacement is LRU over per-slot usage stamps — the
-// frame number in which the ray caster last sampled the slot (paper §8.3: usage reporting drives
+// Brick cache (DESIGN.md "Virtual memory"): a fixed pool of slots, each one (B + 2)³ brick of the voxel
+// type (plus its labels when the volume has them), held in two contiguous slabs on the CPU (a 3D atlas
+// on CUDA). Sized once from a memory budget (--cache-mb). Replacement is LRU over per-slot usage stamps
+// — the frame number in which the ray caster last sampled the slot (paper §8.3: usage reporting drives
 // both the cache and the occupancy tree's retirement).
 #pragma once
 
@@ -26,7 +26,7 @@
 namespace sl {
 
 // Trilinear sampling inside one resident brick, for the caster's inner loop (it stays in a brick
-// without page-table lookups until the ray leaves it, DESIGN.md §8). Uses DenseGrid's arithmetic
+// without page-table lookups until the ray leaves it, DESIGN.md "Ray casting"). Uses DenseGrid's arithmetic
 // verbatim on level coordinates, so at level 0 it returns bit-identical values to
 // DenseGrid<T>::sample for any point in the brick's payload region: the apron holds the neighbours
 // (or the clamped edge voxel, where DenseGrid reuses x0 as x1 and the difference is exactly 0).

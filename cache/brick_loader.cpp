@@ -189,7 +189,7 @@ void BrickLoader::work() {
         wake_.wait(lock);
       } else {
         // A copy: wait_until reads its deadline again after waking, when another worker may have
-        // reallocated backoff_ while the lock was released (a use-after-free ASan caught).
+        // reallocated backoff_ while the lock was released (a reference would dangle).
         const Clock::time_point due = backoff_.front().due;
         wake_.wait_until(lock, due);
       }

@@ -1,10 +1,11 @@
-// Asynchronous brick loading (DESIGN.md §4): worker threads read bricks from a VolumeSource into host
-// staging buffers; each frame the renderer collects at most its upload budget of finished bricks and
-// never waits for a load. Dedicated std::threads rather than TBB tasks: reads may block on I/O for
-// long, and must neither stall nor be starved by the ray caster's parallel loops on the TBB pool
-// (the procedural source's coarse bricks still use TBB inside a read, which is compute-bound).
-// A read that fails with a TransientError (timeout, dropped connection, HTTP 5xx) is retried with
-// exponential backoff (issue 15); the backoff is a not-before time on a queue, never a sleeping worker.
+// Asynchronous brick loading (DESIGN.md "Virtual memory"): worker threads read bricks from a
+// VolumeSource into host staging buffers; each frame the renderer collects at most its upload budget of
+// finished bricks and never waits for a load. Dedicated std::threads rather than TBB tasks: reads may
+// block on I/O for long, and must neither stall nor be starved by the ray caster's parallel loops on
+// the TBB pool (the procedural source's coarse bricks still use TBB inside a read, which is
+// compute-bound). A read that fails with a TransientError (timeout, dropped connection, HTTP 5xx) is
+// retried with exponential backoff; the backoff is a not-before time on a queue, never a sleeping
+// worker.
 #pragma once
 
 #include <chrono>

@@ -1,4 +1,4 @@
-// The out-of-core renderer's block metadata (DESIGN.md §4), kept in bounded memory (issue 14): each
+// The out-of-core renderer's block metadata (DESIGN.md "Virtual memory"), kept in bounded memory: each
 // culling block's min/max and label list is computed once, when its brick is first loaded (or bound
 // by the source), and reused to regrow retired tree regions and to re-cull after a transfer-function
 // or label change without touching the data. Left unbounded, a long exploration keeps the metadata of

@@ -1,4 +1,4 @@
-// Per-level multi-level page table (DESIGN.md §4, after Hadwiger et al. 2012, the paper's [14]).
+// Per-level multi-level page table (DESIGN.md "Virtual memory", after Hadwiger et al. 2012, the paper's [14]).
 // A small directory per level (one 32-bit word per 16³ bricks) points into one pool of 64-word
 // chunks allocated only where an entry is set, so a level of 30 million bricks costs memory only
 // where rays went, in proportion to the bricks touched. Pointer-free inside: pointer words are
@@ -64,7 +64,7 @@ bool constant_encodable(float value, VoxelType t);
 // Constant entry for `value`; requires constant_encodable(value, t).
 PageEntry constant_entry(float value, VoxelType t);
 
-// Geometry of the tree below each level's directory (DESIGN.md §4, issue 14: memory proportional to
+// Geometry of the tree below each level's directory (DESIGN.md "Virtual memory": memory proportional to
 // the bricks touched). A directory word covers 16³ bricks and points to a *node chunk* of 4³ words,
 // each of which points to a *leaf chunk* of 4³ entries (4³ bricks). Node and leaf chunks are the same
 // 64 words and live in one pool, allocated on first touch and freed when they hold nothing: a brick

@@ -1,4 +1,4 @@
-// The 2x reductions that define level l + 1 from level l (DESIGN.md §3), and copying a brick with its
+// The 2x reductions that define level l + 1 from level l (DESIGN.md "Data model"), and copying a brick with its
 // clamped apron out of a dense array. Shared by MemoryVolumeSource (whole-volume pyramid) and the
 // procedural source (per-brick reduction of synthesised level-0 voxels), so both define coarse
 // levels identically.
@@ -23,7 +23,7 @@ namespace sl {
 void reduce_mean(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1);
 void reduce_mode(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, int z0, int z1);
 
-// The bounds pyramid beside it (DESIGN.md §4, "metadata is a min/max pyramid"): the least and the
+// The bounds pyramid beside it (DESIGN.md "Virtual memory", "metadata is a min/max pyramid"): the least and the
 // largest of the same 2³ voxels, so level l voxel v bounds every level-0 voxel below it, and with it
 // every mean of them (each coarser level's values). NaN propagates: a NaN below makes the bound NaN,
 // which block metadata reads as "anything".

@@ -1,8 +1,8 @@
-// The out-of-core sampler: every sample is read through the page table and the brick cache
-// (DESIGN.md §4). A sample at level l uses brick (l, ...) when resident, else the finest resident
+// The out-of-core sampler: every sample is read through the page table and the brick cache (DESIGN.md
+// "Virtual memory"). A sample at level l uses brick (l, ...) when resident, else the finest resident
 // ancestor; the wanted brick is reported once per frame in the unified miss buffer when it is not
-// resident, and always inside UNKNOWN segments (an occupancy miss: the host decides, paper §8.2).
-// Plain data, SL_HOST_DEVICE: the CUDA caster compiles it unchanged.
+// resident, and always inside UNKNOWN segments (an occupancy miss: the host decides, paper §8.2). Plain
+// data, SL_HOST_DEVICE: the CUDA caster compiles it unchanged.
 #pragma once
 
 #include <cstdint>
@@ -68,10 +68,10 @@ struct VirtualSampler {
   MissBufferView misses;
   std::uint32_t frame = 0;
   bool has_labels = false;
-  // Completeness accounting (DESIGN.md §4, cache pressure); null: not counted. Samples not served at
-  // their chosen level (a coarser fallback or nothing) and, under pressure, samples coarser than
-  // `footprint` (the level of detail without pressure, from the eye) asks for. Only such samples
-  // count, so a complete frame without pressure pays one branch per sample.
+  // Completeness accounting (DESIGN.md "Virtual memory", cache pressure); null: not counted. Samples
+  // not served at their chosen level (a coarser fallback or nothing) and, under pressure, samples
+  // coarser than `footprint` (the level of detail without pressure, from the eye) asks for. Only such
+  // samples count, so a complete frame without pressure pays one branch per sample.
   SampleShortfall shortfall;
 
   // Per-ray brick cursor. The caster marches every span on its own copy of the sampler (RayCaster::

@@ -1,6 +1,6 @@
-// Volume sources (DESIGN.md §3): whatever answers "give me brick (level, bx, by, bz)". Host side; the
-// brick loader calls read_brick from its worker threads. Implementations: MemoryVolumeSource (a
-// volume in memory, e.g. a loaded NRRD) here, ProceduralNeuritesSource in procedural_neurites.h.
+// Volume sources (DESIGN.md "Data model"): whatever answers "give me brick (level, bx, by, bz)". Host
+// side; the brick loader calls read_brick from its worker threads. Implementations: MemoryVolumeSource
+// (a volume in memory, e.g. a loaded NRRD) here, ProceduralNeuritesSource in procedural_neurites.h.
 #pragma once
 
 #include <cstddef>
@@ -34,12 +34,12 @@ class VolumeSource {
   virtual void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                           std::span<std::byte> out_labels) const = 0;
 
-  // Culling bounds (DESIGN.md §4, "metadata is a min/max pyramid"): out[i] = the metadata of culling
-  // block blocks[i] of `level` >= 1 (edge `block` level voxels, dilated by one level voxel as
-  // dilated_block does) over every level-0 voxel below it, so that a block EMPTY at a coarse level is
-  // EMPTY at every finer one and zooming in never loses structure. Returns false when the source
-  // cannot bound its coarse levels (a stored pyramid without bounds): the renderer then derives
-  // their metadata from the level's own voxels and treats it as provisional. Thread-safe; throws as
+  // Culling bounds (DESIGN.md "Virtual memory", "metadata is a min/max pyramid"): out[i] = the metadata
+  // of culling block blocks[i] of `level` >= 1 (edge `block` level voxels, dilated by one level voxel
+  // as dilated_block does) over every level-0 voxel below it, so that a block EMPTY at a coarse level
+  // is EMPTY at every finer one and zooming in never loses structure. Returns false when the source
+  // cannot bound its coarse levels (a stored pyramid without bounds): the renderer then derives their
+  // metadata from the level's own voxels and treats it as provisional. Thread-safe; throws as
   // read_brick.
   virtual bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
                             std::span<BlockMetadata> out) const;

@@ -1,9 +1,10 @@
-// The out-of-core CastDevice on CUDA (cache/cast_device.h has the protocol; SimulatedCastDevice is its
-// CPU stand-in, which the tests run). Device memory: the page table mirrored word for word (directory
-// + page pool), the brick slot pool (linear, read by cache/virtual_sampler.h's SlotSampler — or a 3D
-// texture atlas), per-slot usage stamps and the de-duplicating miss buffer (cache/miss_buffer.h's
-// CUDA branch: atomicCAS into an open-addressing table). New bricks go up on a copy stream from
-// pinned staging while the frame's kernel runs on the compute stream; begin_frame() waits for them.
+// The out-of-core CastDevice on CUDA (cache/out_of_core/cast_device.h has the protocol;
+// SimulatedCastDevice is its CPU stand-in, which the tests run). Device memory: the page table mirrored
+// word for word (directory + page pool), the brick slot pool (linear, read by cache/virtual_sampler.h's
+// SlotSampler — or a 3D texture atlas), per-slot usage stamps and the de-duplicating miss buffer
+// (cache/miss_buffer.h's CUDA branch: atomicCAS into an open-addressing table). New bricks go up on a
+// copy stream from pinned staging while the frame's kernel runs on the compute stream; begin_frame()
+// waits for them.
 #include <cuda_runtime.h>
 
 #include <algorithm>
@@ -12,7 +13,7 @@
 #include <cstring>
 #include <vector>
 
-#include "cache/cast_device.h"
+#include "cache/out_of_core/cast_device.h"
 #include "core/util/error.h"
 #include "cuda/cast_kernels.cuh"
 #include "cuda/cuda_renderer.h"

@@ -4,7 +4,7 @@
 #include <memory>
 #include <string>
 
-#include "cache/cast_device.h"
+#include "cache/out_of_core/cast_device.h"
 #include "core/frame/in_core_renderer.h"
 
 namespace sl::cuda {
@@ -24,7 +24,7 @@ DeviceInfo query_devices();
 // state.
 InCoreRenderer::Caster make_frame_caster();
 
-// Out of core: the device side of OutOfCoreRenderer (cache/cast_device.h): page table, slot pool,
+// Out of core: the device side of OutOfCoreRenderer (cache/out_of_core/cast_device.h): page table, slot pool,
 // miss buffer and usage stamps in device memory, brick uploads on a stream that overlaps the frame.
 struct CastDeviceOptions {
   // Sample resident bricks with the texture unit (3D CUDA array atlas, hardware trilinear; close to

@@ -141,9 +141,8 @@ void rasterize(const Capsule& c, ivec3 lo, ivec3 hi, ivec3 org, ivec3 ext, std::
   }
 }
 
-void exact(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
-  const int s = 1 << level;
-  const ivec3 lo0 = first * s, hi0 = glm::min((first + n) * s, p.dims) - 1;  // inclusive level-0 box
+// The capsules (path segments and fibre samples) that can reach the inclusive level-0 box [lo0, hi0].
+std::vector<Capsule> capsules_near(const Params& p, ivec3 lo0, ivec3 hi0) {
   std::vector<Capsule> caps;
   const auto keep = [&](const Capsule& c) {
     const float r = std::max(c.ra, c.rb) + kHalfWidth;
@@ -182,6 +181,41 @@ void exact(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i
       prev = cur;
     }
   }
+  return caps;
+}
+
+// Level-0 voxels of one z slab (origin org, extent ext) from the capsules binned to it.
+struct Slab {
+  std::vector<std::uint8_t> inten;
+  std::vector<float> best;
+  std::vector<std::uint32_t> label;
+
+  void fill(const std::vector<Capsule>& caps, const std::vector<std::uint32_t>& bin, ivec3 org, ivec3 ext) {
+    const std::size_t count = std::size_t(ext.x) * ext.y * ext.z;
+    inten.assign(count, 0);
+    best.assign(count, std::numeric_limits<float>::infinity());
+    label.assign(count, 0);
+    for (const std::uint32_t ci : bin) {
+      const Capsule& c = caps[ci];
+      const float r = std::max(c.ra, c.rb) + kHalfWidth;
+      ivec3 lo, hi;
+      for (int a = 0; a < 3; ++a) voxel_range(c.a[a], c.b[a], r, lo[a], hi[a]);
+      lo = glm::max(lo, org);
+      hi = glm::min(hi, org + ext - 1);
+      if (glm::any(glm::greaterThan(lo, hi))) continue;
+      rasterize(c, lo, hi, org, ext, inten.data(), best.data(), label.data());
+    }
+  }
+};
+
+// The level-l voxels [first, first + n): their level-0 voxels synthesised slab by slab (one level-l
+// slice each), every slab reduced 2x per level with pyramid.h — the MemoryVolumeSource definition, so
+// identical to its pyramid of the same level-0 data.
+void synthesize_and_reduce(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i,
+                           std::uint32_t* out_l) {
+  const int s = 1 << level;
+  const ivec3 lo0 = first * s, hi0 = glm::min((first + n) * s, p.dims) - 1;  // inclusive level-0 box
+  const std::vector<Capsule> caps = capsules_near(p, lo0, hi0);
 
   // Bin capsules by the level-l slice their level-0 z-range touches.
   std::vector<std::vector<std::uint32_t>> bins(std::size_t(n.z));
@@ -194,32 +228,17 @@ void exact(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i
   }
 
   const ivec3 ext0 = hi0 - lo0 + 1;
-  std::vector<std::uint8_t> inten;
-  std::vector<float> best;
-  std::vector<std::uint32_t> label;
+  Slab slab;
   std::vector<std::byte> ri, rl, ti, tl;  // reduction ping-pong buffers
   for (int zl = 0; zl < n.z; ++zl) {
     const int z0 = (first.z + zl) * s, z1 = std::min(z0 + s, p.dims.z) - 1;
     const ivec3 org(lo0.x, lo0.y, z0), ext(ext0.x, ext0.y, z1 - z0 + 1);
     const std::size_t count = std::size_t(ext.x) * ext.y * ext.z;
-    inten.assign(count, 0);
-    best.assign(count, std::numeric_limits<float>::infinity());
-    label.assign(count, 0);
-    for (const std::uint32_t ci : bins[std::size_t(zl)]) {
-      const Capsule& c = caps[ci];
-      const float r = std::max(c.ra, c.rb) + kHalfWidth;
-      ivec3 lo, hi;
-      for (int a = 0; a < 3; ++a) voxel_range(c.a[a], c.b[a], r, lo[a], hi[a]);
-      lo = glm::max(lo, org);
-      hi = glm::min(hi, org + ext - 1);
-      if (glm::any(glm::greaterThan(lo, hi))) continue;
-      rasterize(c, lo, hi, org, ext, inten.data(), best.data(), label.data());
-    }
-    // 2x reductions down to one level-l slice (pyramid.h, the MemoryVolumeSource definition).
+    slab.fill(caps, bins[std::size_t(zl)], org, ext);
     ri.resize(count);
     rl.resize(count * 4);
-    std::memcpy(ri.data(), inten.data(), count);
-    std::memcpy(rl.data(), label.data(), count * 4);
+    std::memcpy(ri.data(), slab.inten.data(), count);
+    std::memcpy(rl.data(), slab.label.data(), count * 4);
     ivec3 d = ext;
     for (int r = 0; r < level; ++r) {
       const ivec3 h = (d + 1) / 2;
@@ -335,8 +354,8 @@ void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t
     });
   } else {
     // Whole cells per voxel (k³ of them). Past 2³ cells a voxel adds up a regular subset of 2³,
-    // scaled up: about 128 tubes, so its mean is within ~15 % (cells vary by ~35 %), near the u8
-    // rounding of these levels (means of 1-3), and the 8 TiB example's coarsest brick stays cheap.
+    // scaled up: about 128 tubes, enough that the subset's error stays near the u8 rounding of these
+    // levels (means of 1-3), and the 8 TiB example's coarsest brick stays cheap.
     const int k = s / kCell, stride = std::max(1, k / 2);
     parallel_for(0, n.z * n.y, [&](int row) {
       const int z = row / n.y, y = row % n.y;
@@ -387,7 +406,7 @@ void ProceduralNeuritesSource::synthesize(int level, ivec3 first, ivec3 n, std::
                                           std::uint32_t* labels) const {
   const Params p = params_of(desc_, seed_);
   switch (method(level)) {
-    case Method::Exact: exact(p, level, first, n, intensity, labels); break;
+    case Method::Exact: synthesize_and_reduce(p, level, first, n, intensity, labels); break;
     case Method::PathSplat: path_splat(p, level, first, n, intensity, labels); break;
     case Method::LineSplat:
     case Method::CellSum: hashed_splat(p, level, first, n, intensity, labels); break;

@@ -4,7 +4,7 @@
 // neurites: u8 intensity = tube brightness (120-255) times a smoothstep profile across 1.5 voxels
 // around the tube surface, capped below 128 outside the core; u32 labels = the neurite id where the
 // voxel centre is inside the tube (the deepest tube wins; ties to the larger id), so a voxel with
-// intensity >= 128 is always labelled. About 2 % of voxels are non-zero.
+// intensity >= 128 is always labelled. Most voxels are zero.
 //
 // Coarse levels follow the same definition as MemoryVolumeSource (mean intensity, label mode), by
 // methods chosen by level so that no brick has to walk more paths than a few hundred cells hold:
@@ -21,10 +21,10 @@
 // Fibres are sampled along their exact curves at every level (coarsely on the coarse ones). Mass is
 // accumulated in 1/256 fixed point, so parallel accumulation is deterministic.
 //
-// Culling bounds (bound_blocks, DESIGN.md §4): on the exact levels 1-2, from the level-0 voxels below
-// each block (synthesised as read_brick does); on the splatted levels >= 3, whose voxels span 8+
-// level-0 voxels and whose blocks (128+ voxels across) all hold tubes, the whole u8 range without
-// labels listed — conservative, and what those blocks' data would give anyway.
+// Culling bounds (bound_blocks, DESIGN.md "Virtual memory"): on the exact levels 1-2, from the level-0
+// voxels below each block (synthesised as read_brick does); on the splatted levels >= 3, whose voxels
+// span 8+ level-0 voxels and whose blocks (128+ voxels across) all hold tubes, the whole u8 range
+// without labels listed — conservative, and what those blocks' data would give anyway.
 #pragma once
 
 #include <cstdint>

@@ -13,7 +13,7 @@
 
 #include <rapidcheck/gtest.h>
 
-#include "cache/fault_injection.h"
+#include "cache/testing/fault_injection.h"
 #include "core/scene/generate.h"
 #include "core/util/error.h"
 

@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "core/scene/generate.h"
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 #include "core/frame/in_core_renderer.h"
 #include "gl/gl_segment_list_builder.h"
 #include "tests/gl/gl_test_util.h"

@@ -6,7 +6,7 @@
 #include <memory>
 
 #include "apps/viewer/stats_rows.h"
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 #include "core/scene/generate.h"
 
 namespace sl::viewer {

@@ -7,7 +7,7 @@
 #include <memory>
 
 #include "core/scene/generate.h"
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "core/occupancy/block_metadata.h"
 #include "core/frame/in_core_renderer.h"

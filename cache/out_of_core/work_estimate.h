@@ -1,9 +1,9 @@
-// The distributed renderer's work estimate (DESIGN.md §11): per brick of one coarse level, how many
-// of its culling blocks can contribute under the current transfer function, iso value and labels —
-// the non-empty blocks the renderer will sample. Read from that level's metadata (a coarse block's
-// range covers every finer voxel below it, DESIGN.md §4, so a region counted empty is empty at every
-// level). The k-d split (core/frame/kd_regions.h) balances it; it is recomputed when the culling inputs
-// change (their cull_key).
+// The distributed renderer's work estimate (DESIGN.md "Beyond one machine"): per brick of one coarse
+// level, how many of its culling blocks can contribute under the current transfer function, iso value
+// and labels — the non-empty blocks the renderer will sample. Read from that level's metadata (a coarse
+// block's range covers every finer voxel below it, DESIGN.md "Virtual memory", so a region counted
+// empty is empty at every level). The k-d split (core/frame/kd_regions.h) balances it; it is recomputed
+// when the culling inputs change (their cull_key).
 #pragma once
 
 #include "cache/brick.h"

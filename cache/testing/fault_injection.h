@@ -1,4 +1,4 @@
-// Fault injection for out-of-core streaming (issue 15), a testing aid: FaultInjectingSource wraps any
+// Fault injection for out-of-core streaming, a testing aid: FaultInjectingSource wraps any
 // VolumeSource and makes a chosen share of its bricks fail to read — for good, transiently (for the
 // first k attempts), as a short read (part of the buffer filled, then a TransientError) — or read
 // slowly. What happens to a read is a pure function of (seed, brick id, attempt number), never of

@@ -1,4 +1,4 @@
-#include "cache/simulated_cast_device.h"
+#include "cache/out_of_core/simulated_cast_device.h"
 
 #include <algorithm>
 #include <cstring>
@@ -18,12 +18,12 @@ void SimulatedCastDevice::configure(const DeviceConfig& c) {
   directory_.assign(c.directory_words, 0u);
   pool_.clear();
   misses_ = std::make_unique<MissBuffer>(c.miss_capacity);
-  pending_.clear();
-  in_flight_.assign(c.slot_count, false);
-  held_.clear();
+  uploads_in_flight_.clear();
+  slot_in_flight_.assign(c.slot_count, false);
+  held_words_.clear();
 }
 
-void SimulatedCastDevice::apply(const PageTableUpdate& u) {
+void SimulatedCastDevice::write_page_words(const PageTableUpdate& u) {
   const std::uint64_t need = u.pool_words_needed();
   if (need > pool_.size()) pool_.resize(std::size_t((need + kChunkWords - 1) / kChunkWords * kChunkWords), 0u);
   for (std::size_t k = 0; k < u.dir_index.size(); ++k) directory_[u.dir_index[k]] = u.dir_value[k];
@@ -33,51 +33,51 @@ void SimulatedCastDevice::apply(const PageTableUpdate& u) {
 void SimulatedCastDevice::begin_frame() {
   // The stream of last frame's uploads has completed: the slots hold their bricks, and the words
   // mapping them become visible.
-  for (Pending& p : pending_) {
+  for (UploadInFlight& p : uploads_in_flight_) {
     std::memcpy(voxels_.data() + p.slot * voxel_stride_, p.voxels.data(), p.voxels.size());
     if (label_stride_ && !p.labels.empty()) {
       std::memcpy(labels_.data() + p.slot * label_stride_, p.labels.data(), p.labels.size());
     }
-    in_flight_[p.slot] = false;
+    slot_in_flight_[p.slot] = false;
   }
-  pending_.clear();
-  apply(held_);
-  held_.clear();
-  frame_ = SimulatedTransfers{};
-  ++frame_.frames;
+  uploads_in_flight_.clear();
+  write_page_words(held_words_);
+  held_words_.clear();
+  this_frame_ = SimulatedTransfers{};
+  ++this_frame_.frames;
   ++total_.frames;
 }
 
 void SimulatedCastDevice::upload_bricks(std::span<const BrickUpload> bricks) {
   for (const BrickUpload& b : bricks) {
     SL_CHECK(b.slot < config_.slot_count && b.voxels.size() == voxel_stride_);
-    Pending p{b.slot, {b.voxels.begin(), b.voxels.end()}, {}};  // staged: the host may reuse its buffer
+    UploadInFlight p{b.slot, {b.voxels.begin(), b.voxels.end()}, {}};  // staged: the host may reuse its buffer
     if (label_stride_) {
       SL_CHECK(b.labels.size() == label_stride_);
       p.labels.assign(b.labels.begin(), b.labels.end());
     }
-    in_flight_[b.slot] = true;
-    pending_.push_back(std::move(p));
+    slot_in_flight_[b.slot] = true;
+    uploads_in_flight_.push_back(std::move(p));
     const std::uint64_t bytes = b.voxels.size() + b.labels.size();
-    ++frame_.bricks_uploaded;
+    ++this_frame_.bricks_uploaded;
     ++total_.bricks_uploaded;
-    frame_.brick_bytes += bytes;
+    this_frame_.brick_bytes += bytes;
     total_.brick_bytes += bytes;
   }
 }
 
 void SimulatedCastDevice::sync_page_table(const PageTableUpdate& update) {
   PageTableUpdate now;
-  split_page_table_update(update, in_flight_, now, held_);
-  apply(now);
+  split_page_table_update(update, slot_in_flight_, now, held_words_);
+  write_page_words(now);
   const std::uint64_t deferred = update.words() - now.words();
-  frame_.page_words += update.words();
+  this_frame_.page_words += update.words();
   total_.page_words += update.words();
-  frame_.page_words_deferred += deferred;
+  this_frame_.page_words_deferred += deferred;
   total_.page_words_deferred += deferred;
 }
 
-VirtualMemoryView SimulatedCastDevice::view() {
+VirtualMemoryView SimulatedCastDevice::device_view() {
   VirtualMemoryView vm;
   vm.layout = &config_.layout;
   vm.page_table = config_.page_table_geometry;
@@ -98,7 +98,7 @@ void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback&
     lists.assign(r.skip.lists);
     skip.lists = lists.view();
   }
-  VirtualMemoryView vm = view();
+  VirtualMemoryView vm = device_view();
   // Its own counters, added to the host's after the cast, as the CUDA device does.
   shortfall_.assign(SampleShortfall::kWords, 0);
   vm.shortfall = r.host.shortfall;
@@ -111,9 +111,9 @@ void SimulatedCastDevice::cast(const CastRequest& r, Frame& frame, CastFeedback&
   for (std::uint32_t s = 0; s < config_.slot_count; ++s) {
     if (usage_[s] == r.frame) fb.used_slots.push_back(s);
   }
-  frame_.misses_returned += fb.misses.size();
+  this_frame_.misses_returned += fb.misses.size();
   total_.misses_returned += fb.misses.size();
-  frame_.usage_returned += fb.used_slots.size();
+  this_frame_.usage_returned += fb.used_slots.size();
   total_.usage_returned += fb.used_slots.size();
 }
 

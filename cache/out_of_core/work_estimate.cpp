@@ -1,4 +1,4 @@
-#include "cache/work_estimate.h"
+#include "cache/out_of_core/work_estimate.h"
 
 #include <cstddef>
 #include <vector>

@@ -7,8 +7,8 @@
 #include <regex>
 #include <set>
 
-#include "cache/fault_injection.h"
-#include "cache/out_of_core.h"
+#include "cache/testing/fault_injection.h"
+#include "cache/out_of_core/renderer.h"
 #include "core/scene/generate.h"
 #include "core/frame/in_core_renderer.h"
 

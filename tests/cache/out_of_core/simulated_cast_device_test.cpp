@@ -1,7 +1,7 @@
-// The host side of a GPU cast device (cache/cast_device.h), proven with the CPU stand-in that keeps its
-// own "device memory": only new bricks and changed page-table words cross, uploads land at the next
-// frame boundary, misses and usage come back and drive resolution and LRU, and the converged image
-// equals the CPU out-of-core and in-core images.
+// The host side of a GPU cast device (cache/out_of_core/cast_device.h), proven with the CPU stand-in
+// that keeps its own "device memory": only new bricks and changed page-table words cross, uploads land
+// at the next frame boundary, misses and usage come back and drive resolution and LRU, and the
+// converged image equals the CPU out-of-core and in-core images.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -10,8 +10,8 @@
 #include <memory>
 
 #include "core/scene/generate.h"
-#include "cache/out_of_core.h"
-#include "cache/simulated_cast_device.h"
+#include "cache/out_of_core/renderer.h"
+#include "cache/out_of_core/simulated_cast_device.h"
 #include "core/frame/in_core_renderer.h"
 #include "tests/test_util.h"
 

@@ -12,7 +12,7 @@
 #include <memory>
 #include <vector>
 
-#include "cache/cast_device.h"
+#include "cache/out_of_core/cast_device.h"
 
 namespace sl {
 
@@ -38,21 +38,21 @@ class SimulatedCastDevice final : public CastDevice {
 
   // Totals and the last frame's transfers (reset by begin_frame).
   const SimulatedTransfers& total() const { return total_; }
-  const SimulatedTransfers& last_frame() const { return frame_; }
+  const SimulatedTransfers& last_frame() const { return this_frame_; }
   // The device's own page-table entry of a brick (tests compare it with the host's).
   PageEntry entry(BrickId id) const;
   // Bricks whose upload has been issued but not yet landed.
-  std::size_t in_flight() const { return pending_.size(); }
+  std::size_t in_flight() const { return uploads_in_flight_.size(); }
   // The bytes of a slot in the device pool (tests).
   std::span<const std::byte> slot_voxels(std::uint32_t slot) const;
 
  private:
-  struct Pending {
+  struct UploadInFlight {
     std::uint32_t slot;
     std::vector<std::byte> voxels, labels;
   };
-  void apply(const PageTableUpdate& u);
-  VirtualMemoryView view();
+  void write_page_words(const PageTableUpdate& u);  // into the device's directory and pool
+  VirtualMemoryView device_view();  // the caster's view of the device's own copies
 
   DeviceConfig config_{};
   std::uint64_t voxel_stride_ = 0, label_stride_ = 0;
@@ -61,10 +61,10 @@ class SimulatedCastDevice final : public CastDevice {
   std::vector<std::uint64_t> shortfall_;   // SampleShortfall counters of the cast
   std::vector<std::uint32_t> directory_, pool_;
   std::unique_ptr<MissBuffer> misses_;
-  std::vector<Pending> pending_;           // uploads in flight (landing at the next begin_frame)
-  std::vector<bool> in_flight_;            // per slot
-  PageTableUpdate held_;                   // page-table words waiting for their slot's upload
-  SimulatedTransfers total_, frame_;
+  std::vector<UploadInFlight> uploads_in_flight_;  // landing at the next begin_frame
+  std::vector<bool> slot_in_flight_;               // per slot: its upload has not landed
+  PageTableUpdate held_words_;                     // page-table words waiting for their slot's upload
+  SimulatedTransfers total_, this_frame_;
 };
 
 }  // namespace sl

@@ -11,7 +11,7 @@
 #include <memory>
 #include <mutex>
 
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "core/scene/camera_path.h"
 #include "tests/test_util.h"

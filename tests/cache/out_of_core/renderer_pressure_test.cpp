@@ -8,7 +8,7 @@
 #include <algorithm>
 #include <memory>
 
-#include "cache/out_of_core.h"
+#include "cache/out_of_core/renderer.h"
 #include "core/scene/generate.h"
 #include "core/frame/in_core_renderer.h"
 

@@ -1,4 +1,4 @@
-#include "cache/cast_device.h"
+#include "cache/out_of_core/cast_device.h"
 
 #include <algorithm>
 

@@ -1,6 +1,6 @@
-// The distributed renderer's work estimate (cache/work_estimate.h): non-empty culling blocks per
+// The distributed renderer's work estimate (cache/out_of_core/work_estimate.h): non-empty culling blocks per
 // coarse brick under the transfer function, summed over the ranks' shares.
-#include "cache/work_estimate.h"
+#include "cache/out_of_core/work_estimate.h"
 
 #include <gtest/gtest.h>
 

@@ -1,6 +1,7 @@
-// Where the out-of-core ray caster runs (DESIGN.md §4; paper §8.2–§8.3). OutOfCoreRenderer keeps the
-// master page table, the slot allocation and LRU, the miss resolution and the occupancy tree on the
-// host; a CastDevice casts each frame and reports its misses and slot usage back. Three of them:
+// Where the out-of-core ray caster runs (DESIGN.md "Virtual memory"; paper §8.2–§8.3). The
+// OutOfCoreRenderer keeps the master page table, the slot allocation and LRU (residency.h), the miss
+// resolution and the occupancy tree (lazy_occupancy.h) on the host; a CastDevice casts each frame and
+// reports its misses and slot usage back. Three of them:
 //  - CpuCastDevice: the CPU caster reads the host's own page table, cache and miss buffer (zero-copy);
 //  - SimulatedCastDevice (simulated_cast_device.h): a CPU stand-in for a GPU with its own copies of
 //    page table, slot pool, miss buffer and usage stamps, fed only by uploads — what the tests use to
@@ -18,7 +19,7 @@
 //                            slot while it is being written; everything else applies before the cast
 //   cast(request, feedback)  casts, then copies back once: the distinct missed brick ids and the
 //                            slots sampled this frame. The host resolves them with the same code as
-//                            for the CPU caster (cache/out_of_core.cpp).
+//                            for the CPU caster (residency.h, loads_and_misses.cpp).
 #pragma once
 
 #include <cstddef>

@@ -1,4 +1,4 @@
-#include "cache/fault_injection.h"
+#include "cache/testing/fault_injection.h"
 
 #include <gtest/gtest.h>
 

@@ -1,0 +1,88 @@
+// The out-of-core renderer's answer to what the last frame left (renderer.h): the bricks the loader
+// finished become resident, and the misses the cast reported are resolved into loads.
+#include <algorithm>
+
+#include "cache/out_of_core/renderer.h"
+
+namespace sl {
+
+void OutOfCoreRenderer::make_loads_resident() {
+  LoaderBatch batch = residency_.loader().collect(settings_.upload_budget);
+  for (const BrickFailure& f : batch.failures) {
+    // A failed brick (permanent, or out of retries) is never requested again. It stays unmapped:
+    // sampled from its finest resident ancestor, or as missing, and counted short of complete, so a
+    // frame with lost data never claims completeness 1.
+    residency_.report_failure(f);
+    occupancy_.mark_unreadable(f.id);
+    prefetch_.forget_failed(f.id);
+  }
+  for (LoadedBrick& b : batch.bricks) take_loaded_brick(std::move(b));
+  residency_.finish_uploads();
+}
+
+void OutOfCoreRenderer::take_loaded_brick(LoadedBrick&& b) {
+  const BrickId id = b.id;
+  const bool prefetched = prefetch_.take_requested(id);
+  if (occupancy_.take_metadata_request(id)) {
+    occupancy_.compute_metadata(b);
+  } else if (prefetched && !occupancy_.has_metadata(id)) {
+    // Chosen under a known NON_EMPTY region: its own metadata will refine the tree there, as a
+    // frame's load of it would (LazyOccupancy::refined_by_loading) — once a frame samples it.
+    occupancy_.compute_metadata(b, /*apply=*/false);
+    prefetch_.metadata_unapplied(id);
+  }
+  const Residency::Placement p = residency_.place(std::move(b), frame_, prefetched);
+  if (p.evicted.valid()) prefetch_.evicted(p.evicted);
+  if (p.placed && prefetched) prefetch_.made_resident(id);
+}
+
+// Paper §8.2: each missed brick means what the occupancy tree says of its region. Unknown → its
+// metadata (from cache, or by loading the brick), then cull and grow; known non-empty and not
+// resident → load; known empty → map it Empty. Unknown regions never load data for sampling alone.
+OutOfCoreRenderer::MissResolution OutOfCoreRenderer::resolve_misses() {
+  MissResolution res;
+  MissLoads loads;
+  for (const BrickId id : residency_.misses().drain()) resolve_miss(id, res, loads);
+  request_loads(loads, res);
+  return res;
+}
+
+void OutOfCoreRenderer::resolve_miss(BrickId id, MissResolution& res, MissLoads& loads) {
+  if (residency_.loader().failed(id)) return;
+  const OccupancyClass cls = occupancy_.brick_class(id);
+  if (cls == OccupancyClass::Unknown) {
+    // Cached metadata regrow a retired or re-culled region without touching the data.
+    if (!occupancy_.apply_cached_metadata_if_complete(id) && occupancy_.request_metadata(id)) {
+      loads.metadata.push_back(id);
+    }
+    return;
+  }
+  const PageEntry e = residency_.page_table().get(id);
+  if (cls == OccupancyClass::Empty) {
+    if (!e.is_resident() && e.state() != PageEntry::State::Empty) {
+      residency_.map_culled_empty(id);
+      res.changed = true;
+    }
+  } else if (!e.is_resident()) {
+    loads.data.push_back(id);
+    loads.refines.push_back(occupancy_.refined_by_loading(id));
+  }
+}
+
+// Metadata loads are always made: culling needs them. Data loads only as far as there is room: a
+// brick loaded without a slot would be dropped and requested again every frame (loader work for
+// nothing, and no progress).
+void OutOfCoreRenderer::request_loads(MissLoads& loads, MissResolution& res) {
+  res.loadable = loads.data.size();
+  const std::size_t n = std::min(loads.data.size(), residency_.free_slots_for_loads());
+  std::vector<BrickId>& ids = loads.metadata;
+  ids.insert(ids.end(), loads.data.begin(), loads.data.begin() + std::ptrdiff_t(n));
+  for (std::size_t i = 0; i < n; ++i) {
+    if (loads.refines[i]) occupancy_.request_metadata(loads.data[i]);
+  }
+  prefetch_.promote(ids);  // the loader promotes them
+  res.requested = residency_.loader().request(ids);
+  res.changed = res.changed || res.requested > 0;
+}
+
+}  // namespace sl
