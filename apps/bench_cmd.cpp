@@ -13,7 +13,7 @@
 #include "apps/outputs.h"
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
-#include "cache/formats/counting_byte_store.h"
+#include "cache/stores/counting_byte_store.h"
 #include "core/util/atomic_file.h"
 #include "core/scene/camera_path.h"
 #include "core/util/error.h"

@@ -15,14 +15,14 @@
 #include <unistd.h>
 
 #include "cache/brick.h"
-#include "cache/formats/nifti.h"
-#include "cache/formats/nrrd_header.h"
+#include "cache/formats/nifti/nifti.h"
+#include "cache/formats/nrrd/header.h"
+#include "cache/formats/tiff/tiff_stack.h"
+#include "cache/formats/zarr/writer.h"
 #include "cache/pyramid.h"
-#include "cache/formats/tiff_stack.h"
-#include "cache/formats/zarr_writer.h"
+#include "core/scene/voxel_dispatch.h"
 #include "core/util/error.h"
 #include "core/util/parallel.h"
-#include "core/scene/voxel_dispatch.h"
 
 namespace sl {
 namespace {

@@ -18,7 +18,7 @@
 #include <string>
 
 #include "cache/formats/slab_reader.h"
-#include "cache/formats/zarr_codec.h"
+#include "cache/formats/zarr/compressor.h"
 #include "core/scene/volume.h"
 
 namespace sl {

@@ -3,8 +3,8 @@
 #include <filesystem>
 
 #include "cache/formats/ingest.h"
-#include "cache/formats/nifti.h"
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nifti/nifti.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/util/error.h"
 
 namespace sl {

@@ -5,7 +5,7 @@
 #include <vector>
 
 #include "cache/formats/ingest.h"
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 

@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "cache/formats/precomputed_source.h"
+#include "cache/formats/precomputed/source.h"
 #include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 

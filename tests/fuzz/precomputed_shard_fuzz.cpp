@@ -6,7 +6,7 @@
 #include <span>
 #include <stdexcept>
 
-#include "cache/formats/precomputed_shard.h"
+#include "cache/formats/precomputed/shard.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

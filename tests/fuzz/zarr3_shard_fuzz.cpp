@@ -11,10 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cache/formats/byte_store.h"
-#include "cache/formats/zarr3_codec.h"
-#include "cache/formats/zarr3_meta.h"
-#include "cache/formats/zarr_array.h"
+#include "cache/formats/zarr/array.h"
+#include "cache/formats/zarr/v3_array.h"
+#include "cache/formats/zarr/v3_codec.h"
+#include "cache/stores/byte_store.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

@@ -5,7 +5,7 @@
 // when sharded, index included). The store is opened and the first chunk's box of every level read.
 #include "tests/fuzz/zarr_fuzz_util.h"
 
-#include "cache/formats/zarr3_codec.h"
+#include "cache/formats/zarr/v3_codec.h"
 
 SL_FUZZ_TARGET(input) {
   const auto parts = sl::fuzz::split(input, std::string_view("\0", 1), 4);

@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "cache/formats/zarr_codec.h"
+#include "cache/formats/zarr/compressor.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

@@ -10,7 +10,7 @@
 #include <memory>
 #include <vector>
 
-#include "cache/formats/zarr_source.h"
+#include "cache/formats/zarr/source.h"
 #include "cache/volume_source.h"
 #include "tests/cache/formats/zarr_test_util.h"
 
