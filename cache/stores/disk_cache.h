@@ -1,4 +1,4 @@
-// An optional on-disk cache of remote store objects (`--disk-cache DIR --disk-cache-mb N`, issue 16):
+// An optional on-disk cache of remote store objects (`--disk-cache DIR --disk-cache-mb N`):
 // a second run over the same URL reads chunks, shard indices and metadata from the local disk instead
 // of the network.
 //

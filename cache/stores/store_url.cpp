@@ -17,21 +17,7 @@ std::mutex g_mutex;
 std::shared_ptr<DiskCache> g_disk_cache;
 std::map<std::string, StoreLocation> g_recognised;  // recognise_url's answers
 
-struct Prefix {
-  const char* text;
-  StoreKind kind;
-};
-constexpr Prefix kPrefixes[] = {{"zarr://", StoreKind::Zarr},
-                                {"zarr2://", StoreKind::Zarr},
-                                {"zarr3://", StoreKind::Zarr},
-                                {"precomputed://", StoreKind::Precomputed}};
-
 bool starts_with(const std::string& s, const char* p) { return s.rfind(p, 0) == 0; }
-
-bool ends_with_zarr(std::string s) {
-  while (s.size() > 1 && s.back() == '/') s.pop_back();
-  return s.size() >= 5 && s.compare(s.size() - 5, 5, ".zarr") == 0;
-}
 
 }  // namespace
 
@@ -47,14 +33,9 @@ bool is_url(const std::string& spec) {
 
 UrlStore open_url_store(const std::string& spec) {
   UrlStore u;
-  u.location = spec;
-  for (const Prefix& p : kPrefixes) {
-    if (starts_with(spec, p.text)) {
-      u.kind = p.kind;
-      u.location = spec.substr(std::string(p.text).size());
-      break;
-    }
-  }
+  const StoreLocation prefixed = split_kind_prefix(spec);
+  u.kind = prefixed.kind;
+  u.location = prefixed.path;
   const bool http = starts_with(u.location, "http://"), https = starts_with(u.location, "https://");
   if (!http && !https) {
     if (is_url(u.location)) {
@@ -105,7 +86,7 @@ StoreLocation recognise_url(const std::string& spec) {
   StoreLocation r{u.kind, u.location};
   if (r.kind == StoreKind::None) {
     try {
-      r.kind = ends_with_zarr(u.location) ? StoreKind::Zarr : probe_store_kind(*u.bytes);
+      r.kind = named_zarr(u.location) ? StoreKind::Zarr : probe_store_kind(*u.bytes);
     } catch (const std::runtime_error& e) {
       throw InputError(spec, std::string("cannot probe the store (") + e.what() + ")");
     }
@@ -116,8 +97,6 @@ StoreLocation recognise_url(const std::string& spec) {
   g_recognised[spec] = r;
   return r;
 }
-
-bool url_is_zarr(const std::string& spec) { return recognise_url(spec).kind == StoreKind::Zarr; }
 
 std::string remote_summary() {
   const HttpCounters& h = http_counters();

@@ -1,4 +1,4 @@
-// Where a chunked store lives, from how the user names it (issue 16): a local directory, an http:// or
+// Where a chunked store lives, from how the user names it: a local directory, an http:// or
 // https:// URL, or one of those behind a format prefix as Neuroglancer writes it: `zarr://`,
 // `zarr2://`, `zarr3://` (the Zarr version is still read from the store) and `precomputed://`. Without
 // a prefix the kind is recognised by what the store holds: zarr.json (Zarr v3), .zattrs/.zarray/.zgroup
@@ -42,12 +42,10 @@ StoreKind probe_store_kind(const ByteStore& bytes);
 // missing). `path` is the spec without its kind prefix. Remembered for the process, so repeated
 // questions cost no requests. A failing probe throws (one line naming the URL and the failure).
 StoreLocation recognise_url(const std::string& spec);
-// recognise_url(spec).kind == StoreKind::Zarr.
-bool url_is_zarr(const std::string& spec);
 
-// "remote: N requests on K connections, X MB, R retried, F failed after retries, W whole answers to ranges; disk cache
-// H hits, M misses, C corrupt, E evicted, B MB in F files" for what the process read over HTTP (empty
-// when it made no request and has no disk cache).
+// "remote: N requests on K connections, X MB, R retried, F failed after retries, W whole answers to
+// ranges; disk cache H hits, M misses, C corrupt, E evicted, B MB in F files" for what the process read
+// over HTTP (empty when it made no request and has no disk cache).
 std::string remote_summary();
 
 // The on-disk cache every remote store opened afterwards reads through (null: none).

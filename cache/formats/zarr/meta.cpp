@@ -445,16 +445,4 @@ StoreInfo open_store(const std::string& path) {
   return open_store(std::make_shared<LocalByteStore>(p), path);
 }
 
-bool is_zarr_path(const std::string& path) {
-  if (is_url(path)) return url_is_zarr(path);
-  std::string p = path;
-  while (p.size() > 1 && p.back() == '/') p.pop_back();
-  if (p.size() >= 5 && p.compare(p.size() - 5, 5, ".zarr") == 0) return true;
-  std::error_code ec;
-  const fs::path d(p);
-  return fs::is_directory(d, ec) &&
-         (fs::exists(d / ".zattrs", ec) || fs::exists(d / ".zgroup", ec) || fs::exists(d / ".zarray", ec) ||
-          fs::exists(d / "zarr.json", ec));
-}
-
 }  // namespace sl::zarr

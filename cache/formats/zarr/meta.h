@@ -91,11 +91,6 @@ StoreInfo open_store(const std::string& path);
 Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& name,
                            const std::string& what);
 
-// True when `path` names a Zarr store: it ends in .zarr (optionally with a trailing slash), is a
-// directory holding .zattrs/.zgroup/.zarray or (v3) zarr.json, or is a URL recognised as Zarr
-// (store_url.h: a zarr scheme, a .zarr name, or one of those objects at the URL).
-bool is_zarr_path(const std::string& path);
-
 // `prefix` + `key`, where a key of "." (a bare array is its own level) adds nothing, so that local
 // paths and URLs never hold a "./" segment.
 std::string join_key(const std::string& prefix, const std::string& key);

@@ -1,4 +1,4 @@
-// DiskCache and CachedByteStore (issue 16): entries survive a restart (the index is rebuilt from the
+// DiskCache and CachedByteStore: entries survive a restart (the index is rebuilt from the
 // directory, LRU order from the files' times); the byte bound evicts the least recently used; short,
 // corrupt and foreign files are detected and refetched; a temporary file a crash left behind is
 // removed and never read; files not the cache's own are never touched; over HTTP a second read of an
