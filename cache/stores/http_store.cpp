@@ -19,7 +19,7 @@ namespace sl {
 namespace {
 
 // Whole objects and the body of any answer are bounded: the largest chunk accepted decodes to 1 GiB
-// (zarr_meta.cpp), and a server that streams without end must not take all memory.
+// (cache/formats/zarr/meta.cpp), and a server that streams without end must not take all memory.
 constexpr std::uint64_t kMaxBodyBytes = std::uint64_t(4) << 30;
 
 // The pool of easy handles and the share object behind every HttpByteStore. It lives for the whole
@@ -180,6 +180,131 @@ long env_long(const char* name, double lo, double hi, double scale) {
   return long(std::ceil(d * scale));
 }
 
+// The Range header's value: "a-b", "-n" for a suffix; empty for the whole object.
+std::string range_text(const HttpByteStore::Range& r) {
+  if (r.suffix) return "-" + std::to_string(r.n);
+  return r.n > 0 ? std::to_string(r.offset) + "-" + std::to_string(r.offset + r.n - 1) : "";
+}
+
+bool is_ranged(const HttpByteStore::Range& r) { return r.suffix || r.n > 0; }
+
+// One try: the request on a pooled handle, counted.
+Response perform(const std::string& u, const HttpByteStore::Range& r, const HttpOptions& options) {
+  HttpCounters& counters = http_counters();
+  const std::string range = range_text(r);
+  Response res;
+  {
+    Handle h;
+    curl_easy_reset(h.h);  // keeps the shared connections and DNS cache
+    curl_easy_setopt(h.h, CURLOPT_SHARE, client().share());
+    curl_easy_setopt(h.h, CURLOPT_URL, u.c_str());
+    curl_easy_setopt(h.h, CURLOPT_PROTOCOLS_STR, "http,https");
+    curl_easy_setopt(h.h, CURLOPT_REDIR_PROTOCOLS_STR, "http,https");
+    curl_easy_setopt(h.h, CURLOPT_FOLLOWLOCATION, 1L);
+    curl_easy_setopt(h.h, CURLOPT_MAXREDIRS, 5L);
+    curl_easy_setopt(h.h, CURLOPT_NOSIGNAL, 1L);  // timeouts without SIGALRM: the loader is threaded
+    curl_easy_setopt(h.h, CURLOPT_CONNECTTIMEOUT_MS, options.connect_timeout_ms);
+    curl_easy_setopt(h.h, CURLOPT_TIMEOUT_MS, options.timeout_ms);
+    curl_easy_setopt(h.h, CURLOPT_LOW_SPEED_LIMIT, 1L);
+    curl_easy_setopt(h.h, CURLOPT_LOW_SPEED_TIME, options.low_speed_time_s);
+    curl_easy_setopt(h.h, CURLOPT_USERAGENT, "sparseleap");
+    curl_easy_setopt(h.h, CURLOPT_ERRORBUFFER, res.error);
+    curl_easy_setopt(h.h, CURLOPT_WRITEFUNCTION, &on_body);
+    curl_easy_setopt(h.h, CURLOPT_WRITEDATA, &res);
+    curl_easy_setopt(h.h, CURLOPT_HEADERFUNCTION, &on_header);
+    curl_easy_setopt(h.h, CURLOPT_HEADERDATA, &res);
+    if (is_ranged(r)) curl_easy_setopt(h.h, CURLOPT_RANGE, range.c_str());
+    res.code = curl_easy_perform(h.h);
+    curl_easy_getinfo(h.h, CURLINFO_RESPONSE_CODE, &res.status);
+    long connects = 0;
+    curl_easy_getinfo(h.h, CURLINFO_NUM_CONNECTS, &connects);
+    counters.connections.fetch_add(std::uint64_t(std::max(connects, 0L)), std::memory_order_relaxed);
+  }
+  counters.requests.fetch_add(1, std::memory_order_relaxed);
+  counters.bytes.fetch_add(res.body.size(), std::memory_order_relaxed);
+  return res;
+}
+
+// What a try's answer means: the bytes (nullopt: no such object), or with `failure` set a transient
+// failure, tried again. Anything else throws.
+struct Answer {
+  std::optional<std::vector<std::byte>> bytes;
+  std::string failure;
+};
+
+Answer failed(std::string why) { return {std::nullopt, std::move(why)}; }
+
+// A transfer that did not complete: transient (tried again) or not (thrown).
+Answer transfer_failure(const Response& res, const std::string& u) {
+  if (res.too_large) throw InputError(u, "the answer exceeds " + std::to_string(kMaxBodyBytes >> 30) + " GiB");
+  // curl's own text, and the detail (host, port, elapsed time) when it gives one.
+  std::string why = curl_easy_strerror(res.code);
+  if (res.error[0] && why.find(res.error) == std::string::npos && std::string(res.error).find(why) == std::string::npos) {
+    why += std::string(" (") + res.error + ")";
+  } else if (res.error[0]) {
+    why = res.error;
+  }
+  if (!transient(res.code)) throw InputError(u, why);
+  return failed(why);
+}
+
+// A 200 to a range request: the server ignored Range and sent everything, so the slice is taken.
+Answer whole_for_range(const Response& res, const HttpByteStore::Range& r, const std::string& u) {
+  http_counters().whole_for_range.fetch_add(1, std::memory_order_relaxed);
+  const std::uint64_t size = res.body.size();
+  if (r.suffix && r.n > size) {
+    throw InputError(u, "object has " + std::to_string(size) + " bytes, fewer than the " + std::to_string(r.n) +
+                            "-byte suffix asked for");
+  }
+  if (!r.suffix && (r.offset > size || r.n > size - r.offset)) {
+    throw InputError(u, "byte range " + std::to_string(r.offset) + "+" + std::to_string(r.n) +
+                            " lies past the end of the " + std::to_string(size) + "-byte object");
+  }
+  const std::uint64_t first = r.suffix ? size - r.n : r.offset;
+  return {std::vector<std::byte>(res.body.begin() + std::ptrdiff_t(first), res.body.begin() + std::ptrdiff_t(first + r.n)),
+          {}};
+}
+
+// A 206 to a range request: its Content-Range must be the range asked for, its body complete.
+Answer partial_content(Response& res, const HttpByteStore::Range& r, const std::string& u) {
+  std::uint64_t a = 0, b = 0, total = 0;
+  bool total_known = false;
+  if (!parse_content_range(res.content_range, a, b, total, total_known)) {
+    throw InputError(u, "206 answer without a valid Content-Range ('" + res.content_range + "')");
+  }
+  if (r.suffix && total_known && total < r.n) {
+    throw InputError(u, "object has " + std::to_string(total) + " bytes, fewer than the " + std::to_string(r.n) +
+                            "-byte suffix asked for");
+  }
+  const std::uint64_t want_a = r.suffix ? (total_known ? total - r.n : a) : r.offset;
+  if (a != want_a || b - a + 1 != r.n) {
+    if (!r.suffix && a == r.offset && total_known && b + 1 == total) {
+      throw InputError(u, "byte range " + std::to_string(r.offset) + "+" + std::to_string(r.n) +
+                              " lies past the end of the " + std::to_string(total) + "-byte object");
+    }
+    throw InputError(u, "asked for bytes " + range_text(r) + ", the server sent '" + res.content_range + "'");
+  }
+  if (res.body.size() != r.n) {
+    return failed("truncated range answer (" + std::to_string(res.body.size()) + " of " + std::to_string(r.n) + " bytes)");
+  }
+  return {std::move(res.body), {}};
+}
+
+Answer interpret(Response res, const HttpByteStore::Range& r, const std::string& u) {
+  const bool ranged = is_ranged(r);
+  if (res.code != CURLE_OK) return transfer_failure(res, u);
+  if (res.status == 404 || res.status == 410) return {};
+  if (res.status == 200 && !ranged) return {std::move(res.body), {}};
+  if (res.status == 200) return whole_for_range(res, r, u);
+  if (res.status == 206 && ranged) return partial_content(res, r, u);
+  if (res.status == 416) {
+    throw InputError(u, "byte range " + range_text(r) + " lies past the end of the object (" + status_text(res) +
+                            (res.content_range.empty() ? "" : ", " + res.content_range) + ")");
+  }
+  if (res.status == 408 || res.status == 429 || (res.status >= 500 && res.status < 600)) return failed(status_text(res));
+  throw InputError(u, status_text(res));
+}
+
 }  // namespace
 
 HttpOptions http_options_from_env() {
@@ -220,108 +345,14 @@ std::optional<std::vector<std::byte>> HttpByteStore::read_suffix(const std::stri
 
 std::optional<std::vector<std::byte>> HttpByteStore::fetch(const std::string& key, Range r) const {
   const std::string u = url(key);
-  const bool ranged = r.suffix || r.n > 0;
-  const std::string range =
-      r.suffix ? "-" + std::to_string(r.n) : ranged ? std::to_string(r.offset) + "-" + std::to_string(r.offset + r.n - 1) : "";
   HttpCounters& counters = http_counters();
   long wait_ms = options_.backoff_ms;
   for (int attempt = 1;; ++attempt) {
-    Response res;
-    {
-      Handle h;
-      curl_easy_reset(h.h);  // keeps the shared connections and DNS cache
-      curl_easy_setopt(h.h, CURLOPT_SHARE, client().share());
-      curl_easy_setopt(h.h, CURLOPT_URL, u.c_str());
-      curl_easy_setopt(h.h, CURLOPT_PROTOCOLS_STR, "http,https");
-      curl_easy_setopt(h.h, CURLOPT_REDIR_PROTOCOLS_STR, "http,https");
-      curl_easy_setopt(h.h, CURLOPT_FOLLOWLOCATION, 1L);
-      curl_easy_setopt(h.h, CURLOPT_MAXREDIRS, 5L);
-      curl_easy_setopt(h.h, CURLOPT_NOSIGNAL, 1L);  // timeouts without SIGALRM: the loader is threaded
-      curl_easy_setopt(h.h, CURLOPT_CONNECTTIMEOUT_MS, options_.connect_timeout_ms);
-      curl_easy_setopt(h.h, CURLOPT_TIMEOUT_MS, options_.timeout_ms);
-      curl_easy_setopt(h.h, CURLOPT_LOW_SPEED_LIMIT, 1L);
-      curl_easy_setopt(h.h, CURLOPT_LOW_SPEED_TIME, options_.low_speed_time_s);
-      curl_easy_setopt(h.h, CURLOPT_USERAGENT, "sparseleap");
-      curl_easy_setopt(h.h, CURLOPT_ERRORBUFFER, res.error);
-      curl_easy_setopt(h.h, CURLOPT_WRITEFUNCTION, &on_body);
-      curl_easy_setopt(h.h, CURLOPT_WRITEDATA, &res);
-      curl_easy_setopt(h.h, CURLOPT_HEADERFUNCTION, &on_header);
-      curl_easy_setopt(h.h, CURLOPT_HEADERDATA, &res);
-      if (ranged) curl_easy_setopt(h.h, CURLOPT_RANGE, range.c_str());
-      res.code = curl_easy_perform(h.h);
-      curl_easy_getinfo(h.h, CURLINFO_RESPONSE_CODE, &res.status);
-      long connects = 0;
-      curl_easy_getinfo(h.h, CURLINFO_NUM_CONNECTS, &connects);
-      counters.connections.fetch_add(std::uint64_t(std::max(connects, 0L)), std::memory_order_relaxed);
-    }
-    counters.requests.fetch_add(1, std::memory_order_relaxed);
-    counters.bytes.fetch_add(res.body.size(), std::memory_order_relaxed);
-
-    std::string failure;  // set: a transient failure, tried again
-    if (res.code != CURLE_OK) {
-      if (res.too_large) throw InputError(u, "the answer exceeds " + std::to_string(kMaxBodyBytes >> 30) + " GiB");
-      // curl's own text, and the detail (host, port, elapsed time) when it gives one.
-      std::string why = curl_easy_strerror(res.code);
-      if (res.error[0] && why.find(res.error) == std::string::npos && std::string(res.error).find(why) == std::string::npos) {
-        why += std::string(" (") + res.error + ")";
-      } else if (res.error[0]) {
-        why = res.error;
-      }
-      if (!transient(res.code)) throw InputError(u, why);
-      failure = why;
-    } else if (res.status == 404 || res.status == 410) {
-      return std::nullopt;
-    } else if (res.status == 200 && !ranged) {
-      return std::move(res.body);
-    } else if (res.status == 200) {
-      // The server ignored Range and sent everything: take the slice.
-      counters.whole_for_range.fetch_add(1, std::memory_order_relaxed);
-      const std::uint64_t size = res.body.size();
-      if (r.suffix && r.n > size) {
-        throw InputError(u, "object has " + std::to_string(size) + " bytes, fewer than the " + std::to_string(r.n) +
-                                "-byte suffix asked for");
-      }
-      if (!r.suffix && (r.offset > size || r.n > size - r.offset)) {
-        throw InputError(u, "byte range " + std::to_string(r.offset) + "+" + std::to_string(r.n) +
-                                " lies past the end of the " + std::to_string(size) + "-byte object");
-      }
-      const std::uint64_t first = r.suffix ? size - r.n : r.offset;
-      return std::vector<std::byte>(res.body.begin() + std::ptrdiff_t(first),
-                                    res.body.begin() + std::ptrdiff_t(first + r.n));
-    } else if (res.status == 206 && ranged) {
-      std::uint64_t a = 0, b = 0, total = 0;
-      bool total_known = false;
-      if (!parse_content_range(res.content_range, a, b, total, total_known)) {
-        throw InputError(u, "206 answer without a valid Content-Range ('" + res.content_range + "')");
-      }
-      if (r.suffix && total_known && total < r.n) {
-        throw InputError(u, "object has " + std::to_string(total) + " bytes, fewer than the " + std::to_string(r.n) +
-                                "-byte suffix asked for");
-      }
-      const std::uint64_t want_a = r.suffix ? (total_known ? total - r.n : a) : r.offset;
-      if (a != want_a || b - a + 1 != r.n) {
-        if (!r.suffix && a == r.offset && total_known && b + 1 == total) {
-          throw InputError(u, "byte range " + std::to_string(r.offset) + "+" + std::to_string(r.n) +
-                                  " lies past the end of the " + std::to_string(total) + "-byte object");
-        }
-        throw InputError(u, "asked for bytes " + range + ", the server sent '" + res.content_range + "'");
-      }
-      if (res.body.size() != r.n) {
-        failure = "truncated range answer (" + std::to_string(res.body.size()) + " of " + std::to_string(r.n) + " bytes)";
-      } else {
-        return std::move(res.body);
-      }
-    } else if (res.status == 416) {
-      throw InputError(u, "byte range " + range + " lies past the end of the object (" + status_text(res) +
-                              (res.content_range.empty() ? "" : ", " + res.content_range) + ")");
-    } else if (res.status == 408 || res.status == 429 || (res.status >= 500 && res.status < 600)) {
-      failure = status_text(res);
-    } else {
-      throw InputError(u, status_text(res));
-    }
+    Answer a = interpret(perform(u, r, options_), r, u);
+    if (a.failure.empty()) return std::move(a.bytes);
     if (attempt >= options_.tries) {
       counters.failed.fetch_add(1, std::memory_order_relaxed);
-      throw TransientError(u, failure + " (gave up after " + std::to_string(attempt) +
+      throw TransientError(u, a.failure + " (gave up after " + std::to_string(attempt) +
                                   (attempt == 1 ? " try)" : " tries)"));
     }
     counters.retries.fetch_add(1, std::memory_order_relaxed);

@@ -1,4 +1,4 @@
-// HttpByteStore: a chunked store (Zarr v2/v3, precomputed) read over HTTP(S) with libcurl (issue 16).
+// HttpByteStore: a chunked store (Zarr v2/v3, precomputed) read over HTTP(S) with libcurl.
 //
 // One process-wide client: a pool of easy handles sharing one CURLSH connection and DNS cache, so the
 // loader threads run requests in parallel and each reuses a kept-alive connection. Objects are GETs,
@@ -54,11 +54,13 @@ class HttpByteStore final : public ByteStore {
   const std::string& base() const { return base_; }
   std::string url(const std::string& key) const;
 
- private:
+  // What one read asks for.
   struct Range {
     bool suffix = false;
     std::uint64_t offset = 0, n = 0;  // n == 0 with !suffix: the whole object
   };
+
+ private:
   std::optional<std::vector<std::byte>> fetch(const std::string& key, Range r) const;
 
   std::string base_;
