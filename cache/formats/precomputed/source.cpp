@@ -5,7 +5,6 @@
 #include "cache/formats/chunked_levels.h"
 #include "cache/formats/precomputed/chunk.h"
 #include "cache/formats/precomputed/shard.h"
-#include "cache/formats/zarr/source.h"
 #include "cache/pyramid.h"
 #include "cache/stores/store_url.h"
 #include "core/util/error.h"
@@ -174,10 +173,10 @@ PrecomputedVolumeSource::PrecomputedVolumeSource(std::shared_ptr<const ByteStore
   const auto base = [](const precomputed::VolumeReader& r) {
     const int c = r.levels() - 1;
     const VolumeDesc d = r.level_desc(c);
-    if (d.byte_size() > ZarrVolumeSource::kMaxDerivedBaseBytes) {
+    if (d.byte_size() > kMaxDerivedBaseBytes) {
       throw InputError(r.name(), r.info().scales[std::size_t(c)].name(c) + " is the coarsest scale and holds " +
                                      mib(d.byte_size()) + "; coarser levels are derived in memory from at most " +
-                                     mib(ZarrVolumeSource::kMaxDerivedBaseBytes) + " (add coarser scales)");
+                                     mib(kMaxDerivedBaseBytes) + " (add coarser scales)");
     }
     return read_chunked_level(
         d, r.info().scales[std::size_t(c)].chunk,

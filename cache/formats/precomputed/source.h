@@ -14,7 +14,7 @@
 #include <vector>
 
 #include "cache/formats/precomputed/info.h"
-#include "cache/formats/zarr/array.h"
+#include "cache/formats/zarr/chunk_cache.h"
 #include "cache/stores/byte_store.h"
 #include "cache/volume_source.h"
 

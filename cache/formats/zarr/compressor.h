@@ -1,7 +1,7 @@
 // Zarr v2 chunk compressors (numcodecs ids zlib, gzip, zstd, blosc; or none), through the Debian
-// libraries (zlib, libzstd, c-blosc). Used by the store reader (zarr_array.h) and writer
-// (zarr_writer.h). Every function here is thread-safe: blosc goes through its *_ctx entry points,
-// which take no global lock and keep no global state.
+// libraries (zlib, libzstd, c-blosc). Used by the store reader (array.h), the writer (writer.h) and
+// the v3 compressor codecs (codecs/). Every function here is thread-safe: blosc goes through its *_ctx
+// entry points, which take no global lock and keep no global state.
 #pragma once
 
 #include <cstddef>

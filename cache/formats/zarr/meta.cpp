@@ -6,6 +6,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "cache/formats/zarr/v2_array.h"
 #include "cache/formats/zarr/v3_array.h"
 #include "cache/formats/zarr/v3_codec.h"
 #include "cache/stores/store_url.h"
@@ -18,9 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-
-// Largest decoded chunk accepted: bigger chunks would make every brick read slow and the cache useless.
-constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
 
 // The object's last key segment, for messages ("'.zarray'").
 std::string file_name(const std::string& key) { return key.substr(key.rfind('/') + 1); }
@@ -56,90 +54,6 @@ std::optional<json> read_json(const ByteStore& bytes, const std::string& key, co
 
 std::string array_label(const std::string& what, const std::string& array) {
   return "array '" + (what.empty() ? array : what + "/" + array) + "'";
-}
-
-VoxelType parse_dtype(const std::string& s, bool& big_endian) {
-  if (s.size() != 3) throw std::runtime_error("unsupported dtype '" + s + "'");
-  const char e = s[0];
-  const std::string t = s.substr(1);
-  if (e != '<' && e != '>' && e != '|') throw std::runtime_error("unsupported dtype '" + s + "'");
-  big_endian = e == '>';
-  if (t == "u1") return VoxelType::U8;
-  if (e == '|') throw std::runtime_error("unsupported dtype '" + s + "'");
-  if (t == "u2") return VoxelType::U16;
-  if (t == "u4") return VoxelType::U32;
-  if (t == "f4") return VoxelType::F32;
-  throw std::runtime_error("unsupported dtype '" + s + "' (supported: |u1, <u2, >u2, <u4, >u4, <f4, >f4)");
-}
-
-std::vector<std::int64_t> int_list(const json& j, const char* key) {
-  if (!j.contains(key) || !j[key].is_array() || j[key].empty()) {
-    throw std::runtime_error(std::string("\"") + key + "\" must be a non-empty list of integers");
-  }
-  std::vector<std::int64_t> v;
-  for (const json& e : j[key]) {
-    if (!e.is_number_integer()) throw std::runtime_error(std::string("\"") + key + "\" must hold integers");
-    v.push_back(e.get<std::int64_t>());
-  }
-  return v;
-}
-
-ArrayMeta parse_array(const json& j) {
-  if (!j.is_object()) throw std::runtime_error(".zarray is not a JSON object");
-  if (!j.contains("zarr_format") || j["zarr_format"] != 2) {
-    throw std::runtime_error("zarr_format must be 2 in a .zarray (Zarr v3 arrays keep their metadata in zarr.json)");
-  }
-  ArrayMeta m;
-  m.shape = int_list(j, "shape");
-  m.chunks = int_list(j, "chunks");
-  if (m.shape.size() != m.chunks.size()) throw std::runtime_error("shape and chunks differ in length");
-  if (m.ndim() < 3 || m.ndim() > 5) {
-    throw std::runtime_error("array has " + std::to_string(m.ndim()) + " dimensions; expected 3 (z, y, x) or 4-5 "
-                             "with singleton leading axes");
-  }
-  for (int i = 0; i < m.ndim(); ++i) {
-    if (m.shape[std::size_t(i)] < 1 || m.shape[std::size_t(i)] > std::numeric_limits<std::int32_t>::max()) {
-      throw std::runtime_error("shape entry " + std::to_string(m.shape[std::size_t(i)]) + " is out of range");
-    }
-    if (m.chunks[std::size_t(i)] < 1 || m.chunks[std::size_t(i)] > std::numeric_limits<std::int32_t>::max()) {
-      throw std::runtime_error("chunks entry " + std::to_string(m.chunks[std::size_t(i)]) + " is out of range");
-    }
-    if (i < m.ndim() - 3 && m.shape[std::size_t(i)] != 1) {
-      throw std::runtime_error("leading (t/c) axis " + std::to_string(i) + " has size " +
-                               std::to_string(m.shape[std::size_t(i)]) + "; only size 1 is supported");
-    }
-  }
-  if (!j.contains("dtype") || !j["dtype"].is_string()) {
-    throw std::runtime_error("dtype must be a string (structured dtypes are not supported)");
-  }
-  m.type = parse_dtype(j["dtype"].get<std::string>(), m.big_endian);
-  double bytes = double(voxel_size(m.type));
-  for (std::int64_t c : m.chunks) bytes *= double(c);
-  if (bytes > double(kMaxChunkBytes)) {
-    throw std::runtime_error("chunks of " + std::to_string(std::uint64_t(bytes)) + " bytes exceed the 1 GiB limit");
-  }
-  const std::string order = j.value("order", std::string("C"));
-  if (order != "C") throw std::runtime_error("order '" + order + "' is not supported (only C order)");
-  if (j.contains("filters") && !j["filters"].is_null() && !(j["filters"].is_array() && j["filters"].empty())) {
-    throw std::runtime_error("filters are not supported");
-  }
-  const json& fv = j.contains("fill_value") ? j["fill_value"] : json();
-  if (fv.is_number()) {
-    m.fill = fv.get<double>();
-  } else if (fv.is_string() && m.type == VoxelType::F32) {
-    const std::string s = fv.get<std::string>();
-    if (s == "NaN") m.fill = std::numeric_limits<double>::quiet_NaN();
-    else if (s == "Infinity") m.fill = std::numeric_limits<double>::infinity();
-    else if (s == "-Infinity") m.fill = -std::numeric_limits<double>::infinity();
-    else throw std::runtime_error("fill_value '" + s + "' is not a number");
-  } else if (!fv.is_null()) {
-    throw std::runtime_error("fill_value must be a number or null");
-  }
-  const std::string sep = j.value("dimension_separator", std::string("."));
-  if (sep != "." && sep != "/") throw std::runtime_error("dimension_separator must be '.' or '/'");
-  m.separator = sep[0];
-  m.compressor = parse_compressor(j.contains("compressor") ? j["compressor"] : json());
-  return m;
 }
 
 vec3 xyz_of(const std::vector<double>& v) {
@@ -218,7 +132,7 @@ Level read_level(const ByteStore& bytes, const std::string& group, const std::st
   const std::optional<json> j = read_json(bytes, join_key(group, join_key(path, name)), store, where);
   if (!j) throw InputError(store, missing.empty() ? where + "missing " + name : missing);
   try {
-    lv.meta = v3 ? v3::parse_array(*j) : parse_array(*j);
+    lv.meta = v3 ? v3::parse_array(*j) : v2::parse_array(*j);
     check_dimension_names(lv.meta, ms);
   } catch (const std::runtime_error& e) {
     throw InputError(store, where + e.what());
@@ -227,142 +141,93 @@ Level read_level(const ByteStore& bytes, const std::string& group, const std::st
   return lv;
 }
 
-}  // namespace
-
-ivec3 ArrayMeta::dims() const {
-  const std::size_t n = shape.size();
-  return ivec3(int(shape[n - 1]), int(shape[n - 2]), int(shape[n - 3]));
-}
-ivec3 ArrayMeta::chunk_dims() const {
-  const std::size_t n = chunks.size();
-  return ivec3(int(chunks[n - 1]), int(chunks[n - 2]), int(chunks[n - 3]));
-}
-std::size_t ArrayMeta::chunk_bytes() const {
-  std::size_t b = std::size_t(voxel_size(type));
-  for (std::int64_t c : chunks) b *= std::size_t(c);
-  return b;
-}
-std::string ArrayMeta::chunk_key(ivec3 c) const {
-  std::string k;
-  for (int i = 0; i < ndim() - 3; ++i) k += std::string("0") + separator;
-  return k + std::to_string(c.z) + separator + std::to_string(c.y) + separator + std::to_string(c.x);
-}
-
-std::string describe(const ArrayMeta& m) { return m.v3 ? m.v3->describe() : describe(m.compressor); }
-
-std::string dtype_string(VoxelType t) {
-  switch (t) {
-    case VoxelType::U8: return "|u1";
-    case VoxelType::U16: return "<u2";
-    case VoxelType::U32: return "<u4";
-    case VoxelType::F32: return "<f4";
-  }
-  return "?";
-}
-
-json to_json(const ArrayMeta& m) {
-  json j;
-  j["zarr_format"] = 2;
-  j["shape"] = m.shape;
-  j["chunks"] = m.chunks;
-  j["dtype"] = dtype_string(m.type);
-  j["order"] = "C";
-  j["fill_value"] = m.fill;
-  j["filters"] = nullptr;
-  j["compressor"] = to_json(m.compressor);
-  j["dimension_separator"] = std::string(1, m.separator);
-  return j;
-}
-
-std::string level_name(const Multiscale& m, int level) {
-  const std::string& p = m.levels[std::size_t(level)].path;
-  return "level " + std::to_string(level) + " (array '" + (m.what.empty() ? p : m.what + "/" + p) + "')";
-}
-
-std::string join_key(const std::string& prefix, const std::string& key) {
-  if (prefix.empty() || prefix == ".") return key == "." ? std::string() : key;
-  if (key.empty() || key == ".") return prefix;
-  return prefix.back() == '/' ? prefix + key : prefix + "/" + key;
-}
-
-Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& store,
-                           const std::string& what) {
-  SL_CHECK(bytes != nullptr);
-  Multiscale m;
-  m.bytes = bytes;
-  m.prefix = prefix;
-  m.what = what;
-  const std::string gwhere = what.empty() ? "" : "group '" + what + "': ";
-  std::vector<std::vector<double>> scales;
-  // Zarr v3: a zarr.json group whose NGFF 0.5 metadata sits in attributes.ome, or a bare array.
-  const std::optional<json> v3_node = read_json(*bytes, join_key(prefix, "zarr.json"), store, gwhere);
-  const bool v3 = v3_node.has_value();
+// A multiscale group's metadata node: Zarr v3's zarr.json (a group whose NGFF 0.5 metadata sits in
+// attributes.ome, or a bare array) or Zarr v2's .zattrs.
+struct GroupNode {
+  bool v3 = false;
   bool bare_v3_array = false;
-  json attrs;
-  if (v3) {
+  json attrs;  // the NGFF attributes; null when there are none
+};
+
+GroupNode read_group(const ByteStore& bytes, const std::string& prefix, const std::string& store,
+                     const std::string& gwhere) {
+  GroupNode g;
+  const std::optional<json> v3_node = read_json(bytes, join_key(prefix, "zarr.json"), store, gwhere);
+  g.v3 = v3_node.has_value();
+  if (g.v3) {
     const json& node = *v3_node;
     if (!node.is_object() || !node.contains("zarr_format") || node["zarr_format"] != 3) {
       throw InputError(store, gwhere + "zarr.json: zarr_format must be 3");
     }
     const std::string type = node.value("node_type", std::string());
     if (type == "array") {
-      bare_v3_array = true;
+      g.bare_v3_array = true;
     } else if (type != "group") {
       throw InputError(store, gwhere + "zarr.json: node_type must be \"group\" or \"array\"");
     } else if (node.contains("attributes") && node["attributes"].is_object() && node["attributes"].contains("ome")) {
-      attrs = node["attributes"]["ome"];
+      g.attrs = node["attributes"]["ome"];
     }
-  } else if (std::optional<json> z = read_json(*bytes, join_key(prefix, ".zattrs"), store, gwhere)) {
-    attrs = std::move(*z);
+  } else if (std::optional<json> z = read_json(bytes, join_key(prefix, ".zattrs"), store, gwhere)) {
+    g.attrs = std::move(*z);
   }
-  if (attrs.is_object() && attrs.contains("multiscales")) {
-    try {
-      const json& mss = attrs["multiscales"];
-      if (!mss.is_array() || mss.empty() || !mss[0].is_object()) {
-        throw std::runtime_error("\"multiscales\" must be a non-empty list of objects");
-      }
-      const json& ms = mss[0];  // NGFF: the first multiscale is the one to use by default
-      if (!ms.contains("datasets") || !ms["datasets"].is_array() || ms["datasets"].empty()) {
-        throw std::runtime_error("multiscales has no \"datasets\"");
-      }
-      for (const json& d : ms["datasets"]) {
-        if (!d.is_object() || !d.contains("path") || !d["path"].is_string()) {
-          throw std::runtime_error("every dataset needs a string \"path\"");
-        }
-        m.levels.push_back({d["path"].get<std::string>(), {}, ivec3(0), vec3(1.0f)});
-      }
-      if (m.levels.size() > 15) throw std::runtime_error("more than 15 levels");
-      for (std::size_t l = 0; l < m.levels.size(); ++l) {
-        Level& lv = m.levels[l];
-        const std::string label = "level " + std::to_string(l);
-        lv = read_level(*bytes, prefix, lv.path, store, what, label, v3, &ms);
-        if (l == 0) check_axes(ms, lv.meta.shape.size());
-        std::vector<double> s = scale_of(ms["datasets"][l], lv.meta.shape.size());
-        const std::vector<double> global = scale_of(ms, lv.meta.shape.size());
-        if (!s.empty() && !global.empty()) {
-          for (std::size_t i = 0; i < s.size(); ++i) s[i] *= global[i];
-        }
-        scales.push_back(s);
-        if (!s.empty()) lv.scale = xyz_of(s);
-      }
-    } catch (const std::runtime_error& e) {
-      if (dynamic_cast<const InputError*>(&e)) throw;
-      throw InputError(store, gwhere + "multiscales: " + e.what());
+  return g;
+}
+
+// The levels of the group's "multiscales" (NGFF: the first multiscale is the one to use by default),
+// read into `m` with their scales (`scales`: per level, empty where the metadata give none).
+void read_multiscales(Multiscale& m, const json& mss, bool v3, const std::string& store, const std::string& gwhere,
+                      std::vector<std::vector<double>>& scales) {
+  try {
+    if (!mss.is_array() || mss.empty() || !mss[0].is_object()) {
+      throw std::runtime_error("\"multiscales\" must be a non-empty list of objects");
     }
+    const json& ms = mss[0];
+    if (!ms.contains("datasets") || !ms["datasets"].is_array() || ms["datasets"].empty()) {
+      throw std::runtime_error("multiscales has no \"datasets\"");
+    }
+    for (const json& d : ms["datasets"]) {
+      if (!d.is_object() || !d.contains("path") || !d["path"].is_string()) {
+        throw std::runtime_error("every dataset needs a string \"path\"");
+      }
+      m.levels.push_back({d["path"].get<std::string>(), {}, ivec3(0), vec3(1.0f)});
+    }
+    if (m.levels.size() > 15) throw std::runtime_error("more than 15 levels");
+    for (std::size_t l = 0; l < m.levels.size(); ++l) {
+      Level& lv = m.levels[l];
+      const std::string label = "level " + std::to_string(l);
+      lv = read_level(*m.bytes, m.prefix, lv.path, store, m.what, label, v3, &ms);
+      if (l == 0) check_axes(ms, lv.meta.shape.size());
+      std::vector<double> s = scale_of(ms["datasets"][l], lv.meta.shape.size());
+      const std::vector<double> global = scale_of(ms, lv.meta.shape.size());
+      if (!s.empty() && !global.empty()) {
+        for (std::size_t i = 0; i < s.size(); ++i) s[i] *= global[i];
+      }
+      scales.push_back(s);
+      if (!s.empty()) lv.scale = xyz_of(s);
+    }
+  } catch (const std::runtime_error& e) {
+    if (dynamic_cast<const InputError*>(&e)) throw;
+    throw InputError(store, gwhere + "multiscales: " + e.what());
   }
-  if (m.levels.empty() && v3) {
-    if (!bare_v3_array) {
+}
+
+// A group without multiscales: a bare array is its own one level (v3: zarr.json; v2: .zarray).
+void read_bare_array(Multiscale& m, const GroupNode& g, const std::string& store, const std::string& gwhere,
+                     std::vector<std::vector<double>>& scales) {
+  if (g.v3) {
+    if (!g.bare_v3_array) {
       throw InputError(store, gwhere + "zarr.json is a group without attributes.ome.multiscales: not an image store");
     }
-    m.levels.push_back(read_level(*bytes, prefix, ".", store, what, "level 0", true, nullptr));
-    scales.emplace_back();
-  }
-  if (m.levels.empty()) {
-    m.levels.push_back(read_level(*bytes, prefix, ".", store, what, "level 0", false, nullptr,
+    m.levels.push_back(read_level(*m.bytes, m.prefix, ".", store, m.what, "level 0", true, nullptr));
+  } else {
+    m.levels.push_back(read_level(*m.bytes, m.prefix, ".", store, m.what, "level 0", false, nullptr,
                                   gwhere + "no OME-Zarr multiscales in .zattrs and no .zarray: not an image store"));
-    scales.emplace_back();
   }
-  // Each level must be a 2x reduction of the one before (DESIGN.md §3), of the same dtype.
+  scales.emplace_back();
+}
+
+// Each level must be a 2x reduction of the one before (DESIGN.md "Data model"), of the same dtype.
+void check_halving(const Multiscale& m, const std::vector<std::vector<double>>& scales, const std::string& store) {
   for (std::size_t l = 1; l < m.levels.size(); ++l) {
     const Level& a = m.levels[l - 1];
     const Level& b = m.levels[l];
@@ -388,6 +253,10 @@ Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::st
       }
     }
   }
+}
+
+// Level 0's dims, spacing and type, as the volume's description.
+void set_desc(Multiscale& m, const std::string& store) {
   m.desc.dims = m.levels[0].dims;
   m.desc.spacing = m.levels[0].scale;
   m.desc.type = m.levels[0].meta.type;
@@ -399,6 +268,58 @@ Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::st
                                 " overflows a 64-bit byte count");
   }
   validate_desc(m.desc, store, std::numeric_limits<std::uint64_t>::max());
+}
+
+}  // namespace
+
+ivec3 ArrayMeta::dims() const {
+  const std::size_t n = shape.size();
+  return ivec3(int(shape[n - 1]), int(shape[n - 2]), int(shape[n - 3]));
+}
+ivec3 ArrayMeta::chunk_dims() const {
+  const std::size_t n = chunks.size();
+  return ivec3(int(chunks[n - 1]), int(chunks[n - 2]), int(chunks[n - 3]));
+}
+std::size_t ArrayMeta::chunk_bytes() const {
+  std::size_t b = std::size_t(voxel_size(type));
+  for (std::int64_t c : chunks) b *= std::size_t(c);
+  return b;
+}
+std::string ArrayMeta::chunk_key(ivec3 c) const {
+  std::string k;
+  for (int i = 0; i < ndim() - 3; ++i) k += std::string("0") + separator;
+  return k + std::to_string(c.z) + separator + std::to_string(c.y) + separator + std::to_string(c.x);
+}
+
+std::string describe(const ArrayMeta& m) { return m.v3 ? m.v3->describe() : describe(m.compressor); }
+
+std::string level_name(const Multiscale& m, int level) {
+  const std::string& p = m.levels[std::size_t(level)].path;
+  return "level " + std::to_string(level) + " (array '" + (m.what.empty() ? p : m.what + "/" + p) + "')";
+}
+
+std::string join_key(const std::string& prefix, const std::string& key) {
+  if (prefix.empty() || prefix == ".") return key == "." ? std::string() : key;
+  if (key.empty() || key == ".") return prefix;
+  return prefix.back() == '/' ? prefix + key : prefix + "/" + key;
+}
+
+Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& store,
+                           const std::string& what) {
+  SL_CHECK(bytes != nullptr);
+  Multiscale m;
+  m.bytes = bytes;
+  m.prefix = prefix;
+  m.what = what;
+  const std::string gwhere = what.empty() ? "" : "group '" + what + "': ";
+  std::vector<std::vector<double>> scales;
+  const GroupNode group = read_group(*bytes, prefix, store, gwhere);
+  if (group.attrs.is_object() && group.attrs.contains("multiscales")) {
+    read_multiscales(m, group.attrs["multiscales"], group.v3, store, gwhere, scales);
+  }
+  if (m.levels.empty()) read_bare_array(m, group, store, gwhere, scales);
+  check_halving(m, scales, store);
+  set_desc(m, store);
   return m;
 }
 

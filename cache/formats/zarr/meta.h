@@ -1,11 +1,11 @@
 // OME-Zarr (NGFF 0.4) on Zarr v2 and (NGFF 0.5) on Zarr v3: the metadata of a store. A store is a key space
-// read through a ByteStore (a local directory or an HTTP(S) URL, store_url.h); its root group's
+// read through a ByteStore (a local directory or an HTTP(S) URL, cache/stores/store_url.h); its root group's
 // .zattrs "multiscales" names one array per level (datasets[].path) with per-level scale transforms,
 // and an optional "labels" group holds label images with their own multiscales (NGFF's image-label).
 // A bare Zarr v2 array (a directory with .zarray) is read as a one-level store. Zarr v3 (zarr.json,
-// zarr3_meta.h) has the same layout with "multiscales" and "labels" under the group's attributes.ome.
+// v3_array.h) has the same layout with "multiscales" and "labels" under the group's attributes.ome.
 //
-// Mapping to sparseleap's volume (DESIGN.md §3): the last three array axes are z, y, x; zarr's C
+// Mapping to sparseleap's volume (DESIGN.md "Data model"): the last three array axes are z, y, x; zarr's C
 // order makes x fastest, exactly as Volume stores it. Leading axes (t, c) must have size 1. Each level
 // must halve the previous one in x, y and z (ceil or floor of an odd size); other pyramids are refused
 // with a clear message rather than resampled.
@@ -16,8 +16,6 @@
 #include <optional>
 #include <string>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "cache/formats/zarr/compressor.h"
 #include "cache/stores/byte_store.h"
@@ -38,7 +36,7 @@ struct ArrayMeta {
   double fill = 0.0;         // null fill_value reads as 0
   char separator = '.';      // dimension_separator: '.' or '/'
   Compressor compressor;
-  // Zarr v3 only: codecs, chunk keys and shards (zarr3_codec.h); `chunks` is then the read grid (the
+  // Zarr v3 only: codecs, chunk keys and shards (v3_codec.h); `chunks` is then the read grid (the
   // inner chunks of a sharded array) and decoded chunks are already in native order.
   std::shared_ptr<const v3::ArrayCodecs> v3;
   std::vector<std::string> dimension_names;  // v3 only, "" for a null name
@@ -54,9 +52,9 @@ struct ArrayMeta {
 // The compressor (v2) or codec chain (v3), for `info`.
 std::string describe(const ArrayMeta& m);
 
-// The dtype string for a type, little-endian ("|u1", "<u2", "<u4", "<f4").
-std::string dtype_string(VoxelType t);
-nlohmann::json to_json(const ArrayMeta& m);
+// Largest decoded chunk accepted (of the read grid: an inner chunk when sharded): bigger chunks would
+// make every brick read slow and the cache useless.
+inline constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
 
 struct Level {
   std::string path;  // relative to the multiscale group
@@ -85,7 +83,7 @@ struct StoreInfo {
 // (an HTTP 5xx, a timeout) stays one.
 StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& name);
 // The store at `path`: a local directory, or a URL (http://, https://, zarr://, zarr2://, zarr3://;
-// store_url.h). Errors name `path` as given.
+// cache/stores/store_url.h). Errors name `path` as given.
 StoreInfo open_store(const std::string& path);
 // A multiscale group (or bare array) at key prefix `prefix` ("" or ending in '/') of store `name`.
 Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& name,

@@ -11,7 +11,7 @@
 namespace sl {
 namespace {
 
-// A whole level of a reader (chunked_levels.h).
+// A whole level of a reader (cache/formats/chunked_levels.h).
 Volume read_level(const zarr::ArrayReader& r, int level, const std::string& origin, bool skip_unreadable = false) {
   const zarr::Level& lv = r.multiscale().levels[std::size_t(level)];
   const VolumeDesc d{lv.dims, r.multiscale().desc.spacing * float(1 << level), lv.meta.type};

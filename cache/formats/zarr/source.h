@@ -1,12 +1,13 @@
-// ZarrVolumeSource: an OME-Zarr store (zarr_meta.h) behind the VolumeSource interface (DESIGN.md §3),
-// read lazily, chunk by chunk, so a store far larger than memory renders out of core (DESIGN.md §4).
+// ZarrVolumeSource: an OME-Zarr store (meta.h) behind the VolumeSource interface (DESIGN.md "Data
+// model"), read lazily, chunk by chunk, so a store far larger than memory renders out of core
+// (DESIGN.md "Virtual memory").
 //
 // Bricks are cut from whatever chunks overlap them (chunk shape need not equal the brick size), aprons
 // included. Levels the store lacks (the brick pyramid continues until one brick holds the volume) are
 // derived at construction from the coarsest stored level by the same 2x reductions MemoryVolumeSource
-// uses (pyramid.h: mean for intensity, mode for labels) and kept in memory; this needs the coarsest
-// stored level to be at most kMaxDerivedBaseBytes (stores written by `sparseleap ingest` end at one
-// chunk). Labels come from the store's NGFF labels/ group (its first label image) or from a separate
+// uses (cache/pyramid.h: mean for intensity, mode for labels) and kept in memory; this needs the coarsest
+// stored level to be at most kMaxDerivedBaseBytes (cache/formats/chunked_levels.h; stores written by
+// `sparseleap ingest` end at one chunk). Labels come from the store's NGFF labels/ group (its first label image) or from a separate
 // store given by path (its image array).
 #pragma once
 
@@ -22,8 +23,6 @@ namespace sl {
 
 class ZarrVolumeSource final : public VolumeSource {
  public:
-  static constexpr std::uint64_t kMaxDerivedBaseBytes = std::uint64_t(512) << 20;
-
   // Opens `path` and, when `labels_path` is not empty, that store's image as the labels (replacing the
   // store's own labels/ group). Throws InputError for bad metadata or a coarsest level too large.
   explicit ZarrVolumeSource(const std::string& path, const std::string& labels_path = "",

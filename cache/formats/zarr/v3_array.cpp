@@ -15,8 +15,7 @@ using json = nlohmann::json;
 
 [[noreturn]] void fail(const std::string& why) { throw std::runtime_error(why); }
 
-// Largest decoded chunk of the read grid and largest shard index accepted (as for v2 chunks).
-constexpr std::uint64_t kMaxChunkBytes = std::uint64_t(1) << 30;
+// Largest shard index accepted (the largest chunk is meta.h's kMaxChunkBytes).
 constexpr std::uint64_t kMaxInnerChunksPerShard = std::uint64_t(1) << 24;
 
 std::vector<std::int64_t> positive_list(const json& j, const std::string& what, std::size_t n) {

@@ -1,7 +1,7 @@
-// Zarr v3 array metadata (an array's zarr.json) mapped onto the reader's ArrayMeta (zarr_meta.h), so
+// Zarr v3 array metadata (an array's zarr.json) mapped onto the reader's ArrayMeta (meta.h), so
 // that every level of a v3 store goes through the same ArrayReader, brick cutting and pyramid checks as
 // a v2 store. The read grid of a sharded array is its inner chunks (sharding_indexed), so bricks fetch
-// only the inner chunks they overlap. Groups and NGFF 0.5 attributes ("ome") are read by zarr_meta.cpp.
+// only the inner chunks they overlap. Groups and NGFF 0.5 attributes ("ome") are read by meta.cpp.
 #pragma once
 
 #include <nlohmann/json_fwd.hpp>

@@ -1,14 +1,12 @@
-// Zarr v3 codec pipelines (zarr.json "codecs"): array->array `transpose`, array->bytes `bytes` (either
-// endian) or `sharding_indexed`, bytes->bytes `gzip`, `zstd`, `blosc` (through zarr_codec.h's
-// decoders) and `crc32c` (verified: a mismatch is a corrupt chunk). Also the chunk key encodings
-// (`default`: c/1/2/3, `v2`: 1.2.3) and the read of one chunk of the array's read grid: for a sharded
-// array that grid is the inner chunks, each fetched alone by byte range from its shard (the shard index
-// is read once and cached), so a brick reads only the inner chunks it overlaps.
+// Zarr v3 codec chains (zarr.json "codecs"), reduced to what decoding needs: array->array `transpose`,
+// array->bytes `bytes` (either endian) or `sharding_indexed`, bytes->bytes `gzip`, `zstd`, `blosc`
+// (through compressor.h's decoders) and `crc32c` (verified: a mismatch is a corrupt chunk); one parser
+// per codec in codecs/. Also the chunk key encodings (`default`: c/1/2/3, `v2`: 1.2.3). Reading a chunk
+// through its chain is v3_chunk.h.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
-#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
@@ -16,11 +14,6 @@
 #include <nlohmann/json_fwd.hpp>
 
 #include "cache/formats/zarr/compressor.h"
-#include "cache/stores/byte_store.h"
-
-namespace sl::zarr {
-class ChunkCache;
-}
 
 namespace sl::zarr::v3 {
 
@@ -69,15 +62,5 @@ Chain parse_chain(const nlohmann::json& codecs, const std::vector<std::int64_t>&
 
 // Castagnoli CRC-32 (the crc32c codec's checksum, RFC 3720).
 std::uint32_t crc32c(const std::byte* p, std::size_t n);
-
-// Reads and decodes chunk `c` of the read grid (one index per axis, slowest first: the inner chunks of
-// a sharded array, the chunks otherwise) from `array_dir` (a key prefix of `bytes`, "" or ending in '/').
-// Returns nullopt where nothing is stored (missing chunk or shard file, or an empty inner chunk):
-// the fill value. Otherwise the chunk's voxels, C order, native byte order, int16 converted to float.
-// Shard indices are cached in `cache` under `cache_prefix`. Throws std::runtime_error("chunk 'K': why"
-// or "shard 'K' inner chunk I: why").
-std::optional<std::vector<std::byte>> read_chunk(const ArrayCodecs& a, const ByteStore& bytes,
-                                                 const std::string& array_dir, const std::vector<std::int64_t>& c,
-                                                 ChunkCache& cache, const std::string& cache_prefix);
 
 }  // namespace sl::zarr::v3

@@ -1,4 +1,4 @@
-// Zarr v3 pieces of the store writer (zarr_writer.h, WriterOptions::zarr_format 3): an array's
+// Zarr v3 pieces of the store writer (writer.h, WriterOptions::zarr_format 3): an array's
 // zarr.json (bytes little-endian + the compressor, optionally inside sharding_indexed with the index at
 // the end as bytes + crc32c, as zarr-python writes it by default) and the assembly of one shard from its
 // encoded inner chunks.

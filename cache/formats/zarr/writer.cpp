@@ -7,6 +7,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "cache/formats/zarr/v2_array.h"
 #include "cache/formats/zarr/v3_writer.h"
 #include "core/util/error.h"
 #include "core/util/parallel.h"
@@ -133,7 +134,7 @@ void StoreWriter::write_group(const fs::path& group, const std::string& name, bo
       }
       write_json(group / std::to_string(l) / "zarr.json", a.dump(2));
     } else {
-      write_json(group / std::to_string(l) / ".zarray", to_json(m).dump(2));
+      write_json(group / std::to_string(l) / ".zarray", v2::to_json(m).dump(2));
     }
   }
 }

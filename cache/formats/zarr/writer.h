@@ -1,9 +1,9 @@
-// Writing an OME-Zarr store (NGFF 0.4 on Zarr v2, or NGFF 0.5 on Zarr v3, optionally sharded): the root group with its multiscales metadata, one
-// array per level ("0", "1", ...), and optionally an NGFF label image under labels/labels/. Chunks
-// are written slab by slab (a layer of chunks along z at a time); chunks that hold only the fill
-// value (0) are not written, which Zarr readers take as the fill value (sparse data stay small).
-// The writer creates the files but does not make the store appear: ingest.h writes into a temporary
-// directory and renames it when complete. A sharded v3 level keeps the encoded inner chunks of one
+// Writing an OME-Zarr store (NGFF 0.4 on Zarr v2, or NGFF 0.5 on Zarr v3, optionally sharded): the root
+// group with its multiscales metadata, one array per level ("0", "1", ...), and optionally an NGFF label
+// image under labels/labels/. Chunks are written slab by slab (a layer of chunks along z at a time);
+// chunks that hold only the fill value (0) are not written, which Zarr readers take as the fill value
+// (sparse data stay small). The writer creates the files but does not make the store appear:
+// cache/formats/ingest.h writes into a temporary directory and renames it when complete. A sharded v3 level keeps the encoded inner chunks of one
 // layer of shards (shard chunk layers) until the layer is complete, then writes each shard whole.
 #pragma once
 

@@ -1,5 +1,6 @@
-// Helpers for the Neuroglancer precomputed tests: the tensorstore peer (tests/data_tools/tensorstore_tool.py,
-// run with the virtual environment scripts/setup makes, .venv-peers/bin/python).
+// The tensorstore peer for the Neuroglancer precomputed and Zarr v3 tests
+// (tests/data_tools/tensorstore_tool.py, run with the virtual environment scripts/setup makes,
+// .venv-peers/bin/python).
 #pragma once
 
 #include <cstdlib>

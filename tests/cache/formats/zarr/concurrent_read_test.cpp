@@ -1,4 +1,4 @@
-// ZarrVolumeSource as the brick loader's worker threads use it (DESIGN.md §4): bricks read by several
+// ZarrVolumeSource as the brick loader's worker threads use it (DESIGN.md "Virtual memory"): bricks read by several
 // threads at once through one small chunk cache, so that chunks are evicted and decoded again while
 // other threads hold them, equal the same bricks read by one thread. scripts/test runs this under
 // ThreadSanitizer with the loader, cache and miss-buffer suites (the chunk cache and, on Zarr v3, the

@@ -1,7 +1,7 @@
 // Zarr v3 codec chains and shard reads without a peer: the crc32c check value, the byte ranges a
 // sharded read asks its ByteStore for (index once, then only the inner chunk wanted), empty inner
 // chunks, and the chains the reader refuses with a reason.
-#include "cache/formats/zarr/v3_codec.h"
+#include "cache/formats/zarr/v3_chunk.h"
 
 #include <gtest/gtest.h>
 

@@ -1,7 +1,7 @@
 // Zarr v3 arrays tensorstore (a second reference implementation, after zarr-python 3 in
-// zarr3_interop_test.cpp) writes — sharded with the index at the start and at the end, inner chunks
+// v3_interop_test.cpp) writes — sharded with the index at the start and at the end, inner chunks
 // raw, gzip, zstd, blosc, with and without crc32c, odd shapes, an unwritten shard — read voxel for voxel
-// by ZarrVolumeSource and the in-core read. In this file because it shares the tensorstore peer.
+// by ZarrVolumeSource and the in-core read.
 #include <gtest/gtest.h>
 
 #include <cstring>
