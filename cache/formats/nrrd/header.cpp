@@ -128,6 +128,172 @@ std::vector<float> parse_space_directions(const std::string& path, const std::st
   return lengths;
 }
 
+using Fields = std::map<std::string, std::string>;  // name without spaces, lower case -> value
+
+// Checks the magic line; leaves `f` after it.
+void read_magic(std::FILE* f, const std::string& path) {
+  // Check the magic on raw bytes first, so a binary file is rejected as "not a NRRD" at once.
+  char magic[9] = {};
+  const std::size_t got = std::fread(magic, 1, 8, f);
+  if (got < 4 || std::memcmp(magic, "NRRD", 4) != 0) {
+    throw InputError(path, "not a NRRD file (it does not start with the magic line 'NRRD000x')");
+  }
+  std::rewind(f);
+  std::string line;
+  read_line(f, line, path);
+  if (line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 || line[7] < '1' || line[7] > '5') {
+    throw InputError(path, "unsupported NRRD magic '" + line.substr(0, 16) +
+                               "' (expected NRRD0001 to NRRD0005)");
+  }
+}
+
+// Reads the field lines up to the blank line that ends an attached header (true: seen; `f` is then at
+// the data) or the end of a detached one.
+bool read_fields(std::FILE* f, const std::string& path, Fields& fields) {
+  std::string line;
+  for (int line_no = 2; read_line(f, line, path); ++line_no) {
+    if (std::ftell(f) > long(kMaxHeader)) throw InputError(path, "header larger than 16 MiB");
+    if (line.empty()) return true;
+    if (line[0] == '#') continue;
+    const auto colon = line.find(':');
+    if (colon == std::string::npos) {
+      throw InputError(path, "header line " + std::to_string(line_no) + " ('" + line.substr(0, 60) +
+                                 "') is not a 'field: value' pair");
+    }
+    if (colon + 1 < line.size() && line[colon + 1] == '=') continue;  // key:=value, no geometry
+    std::string name;  // "data file" == "datafile", "byte skip" == "byteskip" (both spec spellings)
+    for (char c : lower(line.substr(0, colon))) {
+      if (c != ' ' && c != '\t') name.push_back(c);
+    }
+    fields[name] = trim(line.substr(colon + 1));
+    // "data file: LIST" is the last field; file names follow, one a line (rejected below).
+    if (name == "datafile") {
+      const auto tok = split_ws(fields[name]);
+      if (!tok.empty() && tok[0] == "LIST") break;
+    }
+  }
+  return false;
+}
+
+const std::string& required(const Fields& fields, const std::string& path, const char* name) {
+  const auto it = fields.find(name);
+  if (it == fields.end()) throw InputError(path, std::string("missing required field '") + name + "'");
+  return it->second;
+}
+
+void check_dimension(const Fields& fields, const std::string& path) {
+  int dim = 0;
+  const std::string& v = required(fields, path, "dimension");
+  if (!parse_number(v, dim)) throw InputError(path, "dimension '" + v + "' is not an integer");
+  if (dim != 3) {
+    throw InputError(path, "dimension is " + v + "; only 3-D volumes (dimension: 3) are supported");
+  }
+}
+
+// The dims; needs the type, to check the byte count.
+void parse_sizes(const Fields& fields, const std::string& path, Header& h) {
+  const std::string& v = required(fields, path, "sizes");
+  const auto tok = split_ws(v);
+  if (tok.size() != 3) {
+    throw InputError(path, "'sizes: " + v + "' has " + std::to_string(tok.size()) +
+                               " values, expected 3 (one per axis)");
+  }
+  for (int a = 0; a < 3; ++a) {
+    std::int64_t s = 0;
+    if (!parse_number(tok[a], s)) throw InputError(path, "size '" + tok[a] + "' is not an integer");
+    if (s <= 0) {
+      throw InputError(path, "size along axis " + std::to_string(a) + " is " + tok[a] +
+                                 " (must be positive)");
+    }
+    if (s > std::numeric_limits<int>::max()) {
+      throw InputError(path, "size along axis " + std::to_string(a) + " is " + tok[a] + " (absurdly large)");
+    }
+    h.desc.dims[a] = int(s);
+  }
+  // Checked here, not only by validate_desc, so header-only reads also reject impossible sizes.
+  std::uint64_t bytes = std::uint64_t(voxel_size(h.desc.type));
+  for (int a = 0; a < 3; ++a) {
+    if (__builtin_mul_overflow(bytes, std::uint64_t(h.desc.dims[a]), &bytes)) {
+      throw InputError(path, "sizes '" + v + "' are absurd: the byte count overflows 64 bits");
+    }
+  }
+}
+
+void parse_encoding(const Fields& fields, const std::string& path, Header& h) {
+  const std::string v = lower(required(fields, path, "encoding"));
+  if (v == "gzip" || v == "gz") {
+    h.gzip = true;
+  } else if (v == "txt" || v == "text" || v == "ascii" || v == "hex" || v == "bzip2" || v == "bz2") {
+    throw InputError(path, "encoding '" + v + "' is not supported (expected raw or gzip)");
+  } else if (v != "raw") {
+    throw InputError(path, "unknown encoding '" + v + "' (expected raw or gzip)");
+  }
+}
+
+void parse_endian(const Fields& fields, const std::string& path, Header& h) {
+  // Optional: teem requires it only for multi-byte types; absent means little (every modern writer).
+  const auto it = fields.find("endian");
+  if (it == fields.end()) return;
+  const std::string v = lower(it->second);
+  if (v != "little" && v != "big") throw InputError(path, "unknown endian '" + v + "' (expected little or big)");
+  h.big_endian = v == "big";
+}
+
+void parse_spacing(const Fields& fields, const std::string& path, Header& h) {
+  if (auto it = fields.find("spacedirections"); it != fields.end()) {
+    // Preferred over `spacings` (the spec forbids both; Slicer writes only this one). Orientation is
+    // not modelled: the renderer's world is axis-aligned, so only the step lengths matter.
+    const auto len = parse_space_directions(path, it->second);
+    if (len.size() != 3) throw InputError(path, "'space directions' must have 3 entries, one per axis");
+    h.desc.spacing = vec3(len[0], len[1], len[2]);
+  } else if (auto it2 = fields.find("spacings"); it2 != fields.end()) {
+    const auto tok = split_ws(it2->second);
+    if (tok.size() != 3) throw InputError(path, "'spacings' must have 3 values, one per axis");
+    for (int a = 0; a < 3; ++a) {
+      double s = 0.0;
+      if (!parse_number(tok[a], s)) throw InputError(path, "spacing '" + tok[a] + "' is not a number");
+      // Refused rather than guessed: NaN (unknown) would silently become 1 and a negative spacing (a
+      // flipped axis, which the axis-aligned world cannot show) would silently lose its sign. Zero is
+      // refused by validate_desc, naming the axis.
+      if (std::isnan(s) || s < 0.0) throw InputError(path, "spacing '" + tok[a] + "' must be a positive number");
+      h.desc.spacing[a] = float(s);
+    }
+  }
+}
+
+// `byte skip` and `line skip`; needs the encoding (a skip of -1 is raw only).
+void parse_skips(const Fields& fields, const std::string& path, Header& h) {
+  for (const char* name : {"byteskip", "lineskip"}) {
+    const auto it = fields.find(name);
+    if (it == fields.end()) continue;
+    std::int64_t n = 0;
+    const bool bytes = name[0] == 'b';
+    if (!parse_number(it->second, n) || n < (bytes ? -1 : 0)) {
+      throw InputError(path, std::string(bytes ? "byte" : "line") + " skip '" + it->second + "' is invalid");
+    }
+    (bytes ? h.byte_skip : h.line_skip) = n;
+  }
+  if (h.byte_skip == -1 && h.gzip) throw InputError(path, "'byte skip: -1' is only allowed with raw encoding");
+}
+
+// Where the data are: a detached `data file`, or after the blank line of an attached header.
+void parse_data_file(const Fields& fields, const std::string& path, bool blank_line, Header& h) {
+  if (auto it = fields.find("datafile"); it != fields.end()) {
+    const std::string& v = it->second;
+    const auto tok = split_ws(v);
+    if (v.empty()) throw InputError(path, "'data file' is empty");
+    // Multi-file forms: "LIST" (names on the following lines) or "fmt%d min max step [subdim]".
+    if (tok[0] == "LIST" || (tok.size() >= 4 && tok[0].find('%') != std::string::npos)) {
+      throw InputError(path, "multi-file data ('data file: " + v + "') are not supported");
+    }
+    fs::path p(v);
+    if (p.is_relative()) p = fs::path(path).parent_path() / p;  // relative to the header's directory
+    h.data_file = p.string();
+  } else if (!blank_line) {
+    throw InputError(path, "header has no blank line followed by data and no 'data file' field");
+  }
+}
+
 }  // namespace
 
 std::string errno_text() { return std::strerror(errno); }
@@ -150,151 +316,18 @@ File open_read(const std::string& path, const std::string& who, const std::strin
 
 Header parse_header(const std::string& path) {
   File f = open_read(path, path, "");
-  // Check the magic on raw bytes first, so a binary file is rejected as "not a NRRD" at once.
-  char magic[9] = {};
-  const std::size_t got = std::fread(magic, 1, 8, f.get());
-  if (got < 4 || std::memcmp(magic, "NRRD", 4) != 0) {
-    throw InputError(path, "not a NRRD file (it does not start with the magic line 'NRRD000x')");
-  }
-  std::rewind(f.get());
-  std::string line;
-  read_line(f.get(), line, path);
-  if (line.size() != 8 || line.compare(0, 7, "NRRD000") != 0 || line[7] < '1' || line[7] > '5') {
-    throw InputError(path, "unsupported NRRD magic '" + line.substr(0, 16) +
-                               "' (expected NRRD0001 to NRRD0005)");
-  }
-
-  std::map<std::string, std::string> fields;  // name without spaces, lower case -> value
-  bool blank_line = false;
-  for (int line_no = 2; read_line(f.get(), line, path); ++line_no) {
-    if (std::ftell(f.get()) > long(kMaxHeader)) throw InputError(path, "header larger than 16 MiB");
-    if (line.empty()) {  // the blank line ends an attached header; the data follow it
-      blank_line = true;
-      break;
-    }
-    if (line[0] == '#') continue;
-    const auto colon = line.find(':');
-    if (colon == std::string::npos) {
-      throw InputError(path, "header line " + std::to_string(line_no) + " ('" + line.substr(0, 60) +
-                                 "') is not a 'field: value' pair");
-    }
-    if (colon + 1 < line.size() && line[colon + 1] == '=') continue;  // key:=value, no geometry
-    std::string name;  // "data file" == "datafile", "byte skip" == "byteskip" (both spec spellings)
-    for (char c : lower(line.substr(0, colon))) {
-      if (c != ' ' && c != '\t') name.push_back(c);
-    }
-    fields[name] = trim(line.substr(colon + 1));
-    // "data file: LIST" is the last field; file names follow, one a line (rejected below).
-    if (name == "datafile") {
-      const auto tok = split_ws(fields[name]);
-      if (!tok.empty() && tok[0] == "LIST") break;
-    }
-  }
-
-  const auto field = [&](const char* name, const char* shown) -> const std::string& {
-    const auto it = fields.find(name);
-    if (it == fields.end()) throw InputError(path, std::string("missing required field '") + shown + "'");
-    return it->second;
-  };
-
+  read_magic(f.get(), path);
+  Fields fields;
+  const bool blank_line = read_fields(f.get(), path, fields);
   Header h;
-  {
-    int dim = 0;
-    const std::string& v = field("dimension", "dimension");
-    if (!parse_number(v, dim)) throw InputError(path, "dimension '" + v + "' is not an integer");
-    if (dim != 3) {
-      throw InputError(path, "dimension is " + v + "; only 3-D volumes (dimension: 3) are supported");
-    }
-  }
-  h.desc.type = parse_type(path, field("type", "type"));
-  {
-    const std::string& v = field("sizes", "sizes");
-    const auto tok = split_ws(v);
-    if (tok.size() != 3) {
-      throw InputError(path, "'sizes: " + v + "' has " + std::to_string(tok.size()) +
-                                 " values, expected 3 (one per axis)");
-    }
-    for (int a = 0; a < 3; ++a) {
-      std::int64_t s = 0;
-      if (!parse_number(tok[a], s)) throw InputError(path, "size '" + tok[a] + "' is not an integer");
-      if (s <= 0) {
-        throw InputError(path, "size along axis " + std::to_string(a) + " is " + tok[a] +
-                                   " (must be positive)");
-      }
-      if (s > std::numeric_limits<int>::max()) {
-        throw InputError(path, "size along axis " + std::to_string(a) + " is " + tok[a] + " (absurdly large)");
-      }
-      h.desc.dims[a] = int(s);
-    }
-    // Checked here, not only by validate_desc, so header-only reads also reject impossible sizes.
-    std::uint64_t bytes = std::uint64_t(voxel_size(h.desc.type));
-    for (int a = 0; a < 3; ++a) {
-      if (__builtin_mul_overflow(bytes, std::uint64_t(h.desc.dims[a]), &bytes)) {
-        throw InputError(path, "sizes '" + v + "' are absurd: the byte count overflows 64 bits");
-      }
-    }
-  }
-  {
-    const std::string v = lower(field("encoding", "encoding"));
-    if (v == "gzip" || v == "gz") {
-      h.gzip = true;
-    } else if (v == "txt" || v == "text" || v == "ascii" || v == "hex" || v == "bzip2" || v == "bz2") {
-      throw InputError(path, "encoding '" + v + "' is not supported (expected raw or gzip)");
-    } else if (v != "raw") {
-      throw InputError(path, "unknown encoding '" + v + "' (expected raw or gzip)");
-    }
-  }
-  if (auto it = fields.find("endian"); it != fields.end()) {
-    // Optional: teem requires it only for multi-byte types; absent means little (every modern writer).
-    const std::string v = lower(it->second);
-    if (v != "little" && v != "big") throw InputError(path, "unknown endian '" + v + "' (expected little or big)");
-    h.big_endian = v == "big";
-  }
-  if (auto it = fields.find("spacedirections"); it != fields.end()) {
-    // Preferred over `spacings` (the spec forbids both; Slicer writes only this one). Orientation is
-    // not modelled: the renderer's world is axis-aligned, so only the step lengths matter.
-    const auto len = parse_space_directions(path, it->second);
-    if (len.size() != 3) throw InputError(path, "'space directions' must have 3 entries, one per axis");
-    h.desc.spacing = vec3(len[0], len[1], len[2]);
-  } else if (auto it2 = fields.find("spacings"); it2 != fields.end()) {
-    const auto tok = split_ws(it2->second);
-    if (tok.size() != 3) throw InputError(path, "'spacings' must have 3 values, one per axis");
-    for (int a = 0; a < 3; ++a) {
-      double s = 0.0;
-      if (!parse_number(tok[a], s)) throw InputError(path, "spacing '" + tok[a] + "' is not a number");
-      // Refused rather than guessed: NaN (unknown) would silently become 1 and a negative spacing (a
-      // flipped axis, which the axis-aligned world cannot show) would silently lose its sign. Zero is
-      // refused by validate_desc below, naming the axis.
-      if (std::isnan(s) || s < 0.0) throw InputError(path, "spacing '" + tok[a] + "' must be a positive number");
-      h.desc.spacing[a] = float(s);
-    }
-  }
-  for (const char* name : {"byteskip", "lineskip"}) {
-    const auto it = fields.find(name);
-    if (it == fields.end()) continue;
-    std::int64_t n = 0;
-    const bool bytes = name[0] == 'b';
-    if (!parse_number(it->second, n) || n < (bytes ? -1 : 0)) {
-      throw InputError(path, std::string(bytes ? "byte" : "line") + " skip '" + it->second + "' is invalid");
-    }
-    (bytes ? h.byte_skip : h.line_skip) = n;
-  }
-  if (h.byte_skip == -1 && h.gzip) throw InputError(path, "'byte skip: -1' is only allowed with raw encoding");
-
-  if (auto it = fields.find("datafile"); it != fields.end()) {
-    const std::string& v = it->second;
-    const auto tok = split_ws(v);
-    if (v.empty()) throw InputError(path, "'data file' is empty");
-    // Multi-file forms: "LIST" (names on the following lines) or "fmt%d min max step [subdim]".
-    if (tok[0] == "LIST" || (tok.size() >= 4 && tok[0].find('%') != std::string::npos)) {
-      throw InputError(path, "multi-file data ('data file: " + v + "') are not supported");
-    }
-    fs::path p(v);
-    if (p.is_relative()) p = fs::path(path).parent_path() / p;  // relative to the header's directory
-    h.data_file = p.string();
-  } else if (!blank_line) {
-    throw InputError(path, "header has no blank line followed by data and no 'data file' field");
-  }
+  check_dimension(fields, path);
+  h.desc.type = parse_type(path, required(fields, path, "type"));
+  parse_sizes(fields, path, h);
+  parse_encoding(fields, path, h);
+  parse_endian(fields, path, h);
+  parse_spacing(fields, path, h);
+  parse_skips(fields, path, h);
+  parse_data_file(fields, path, blank_line, h);
   h.data_offset = std::uint64_t(ftello(f.get()));
   return h;
 }

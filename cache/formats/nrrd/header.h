@@ -1,6 +1,8 @@
-// NRRD header parsing, internal to cache/: shared by read_nrrd (nrrd.cpp) and read_nrrd_header.
+// NRRD internals shared by read_nrrd and read_nrrd_header (nrrd.cpp, header.cpp) and the streaming reader
+// (slabs.cpp): the header parse, opening the data it describes, byte swapping.
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <memory>
@@ -36,5 +38,16 @@ struct Header {
 // byte count fits in 64 bits), encoding, endianness, spacing and where the data are. Applies no
 // memory limit and does not look at the data.
 Header parse_header(const std::string& path);
+
+// The data `h` describes, opened: the detached data file, or `path` just after its header; past the
+// `line skip` lines. `where` prefixes the errors about a detached data file ("data file 'x.raw': ").
+struct DataFile {
+  File file;
+  std::string where;
+};
+DataFile open_data(const Header& h, const std::string& path);
+
+// Reverses the bytes of each of `count` items of `size` bytes (a byte-order change).
+void swap_bytes(std::byte* p, std::uint64_t count, int size);
 
 }  // namespace sl::nrrd_detail

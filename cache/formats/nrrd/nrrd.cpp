@@ -15,7 +15,7 @@
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
 
-// NRRD data: reading the payload described by a parsed header (nrrd_header.cpp), and writing.
+// NRRD data: reading the payload described by a parsed header (header.cpp), and writing.
 namespace sl {
 namespace {
 
@@ -23,14 +23,11 @@ namespace fs = std::filesystem;
 using nrrd_detail::errno_text;
 using nrrd_detail::File;
 using nrrd_detail::Header;
+using nrrd_detail::swap_bytes;
 
 constexpr std::size_t kChunk = std::size_t(1) << 20;  // I/O and zlib buffer size
 // zlib counts in 32-bit uInt, so large volumes go through it in pieces of at most this size.
 constexpr std::uint64_t kZlibPiece = std::uint64_t(1) << 30;
-
-void swap_bytes(std::byte* p, std::uint64_t count, int size) {
-  for (std::uint64_t i = 0; i < count; ++i, p += size) std::reverse(p, p + size);
-}
 
 std::string fmt_bytes(std::uint64_t n) { return std::to_string(n) + (n == 1 ? " byte" : " bytes"); }
 
@@ -122,21 +119,37 @@ void read_gzip(std::FILE* f, const std::string& path, const std::string& where, 
 
 }  // namespace
 
-Volume read_nrrd(const std::string& path) {
-  const Header h = nrrd_detail::parse_header(path);
-  validate_desc(h.desc, path);
+namespace nrrd_detail {
+
+void swap_bytes(std::byte* p, std::uint64_t count, int size) {
+  for (std::uint64_t i = 0; i < count; ++i, p += size) std::reverse(p, p + size);
+}
+
+DataFile open_data(const Header& h, const std::string& path) {
   const bool detached = !h.data_file.empty();
-  const std::string where = detached ? "data file '" + h.data_file + "': " : "";
-  File f = nrrd_detail::open_read(detached ? h.data_file : path, path, where);
-  if (!detached && fseeko(f.get(), off_t(h.data_offset), SEEK_SET) != 0) {
+  DataFile d;
+  d.where = detached ? "data file '" + h.data_file + "': " : "";
+  d.file = open_read(detached ? h.data_file : path, path, d.where);
+  if (!detached && fseeko(d.file.get(), off_t(h.data_offset), SEEK_SET) != 0) {
     throw InputError(path, "cannot seek: " + errno_text());
   }
   for (std::int64_t i = 0; i < h.line_skip; ++i) {
     int c;
-    while ((c = std::getc(f.get())) != EOF && c != '\n') {
+    while ((c = std::getc(d.file.get())) != EOF && c != '\n') {
     }
-    if (c == EOF) throw InputError(path, where + "data truncated: file ends within the skipped lines");
+    if (c == EOF) throw InputError(path, d.where + "data truncated: file ends within the skipped lines");
   }
+  return d;
+}
+
+}  // namespace nrrd_detail
+
+Volume read_nrrd(const std::string& path) {
+  const Header h = nrrd_detail::parse_header(path);
+  validate_desc(h.desc, path);
+  nrrd_detail::DataFile data = nrrd_detail::open_data(h, path);
+  const File& f = data.file;
+  const std::string& where = data.where;
 
   const std::uint64_t need = h.desc.byte_size();
   if (!h.gzip) seek_raw(f.get(), path, where, h, need);

@@ -1,5 +1,6 @@
-// NRRD volumes (teem's format, read and written by 3D Slicer, ITK, ParaView): reader and writer for
-// the 3-D scalar volumes sparseleap renders (DESIGN.md §3). Spec: teem.sourceforge.net/nrrd/format.html
+// NRRD volumes (teem's format, read and written by 3D Slicer, ITK, ParaView): readers and writer for
+// the 3-D scalar volumes sparseleap renders (DESIGN.md "Data model").
+// Spec: teem.sourceforge.net/nrrd/format.html
 //
 // Read: magic NRRD0001..NRRD0005, attached (.nrrd) or detached (header naming a `data file`, resolved
 // relative to the header's directory), encodings raw and gzip, types uchar/ushort/uint/float under all
@@ -12,15 +13,21 @@
 // Every problem with the input throws InputError(path, reason); nothing else escapes for bad files.
 #pragma once
 
+#include <memory>
 #include <string>
 #include <vector>
 
+#include "cache/formats/slab_reader.h"
 #include "core/scene/volume.h"
 
 namespace sl {
 
 // Reads a whole 3-D NRRD volume into memory (checked against validate_desc's memory limit).
 Volume read_nrrd(const std::string& path);
+
+// The NRRD reader streaming z-slab by z-slab (raw: sequential reads; gzip: inflated as it goes), for
+// `ingest`. Checks the header like read_nrrd_header and that raw data are all there.
+std::unique_ptr<SlabReader> open_nrrd_slabs(const std::string& path);
 
 // Reads only the header: dims, spacing and type. Checks that the description is well formed but not
 // that it fits in memory, so `info` can describe volumes larger than RAM. Does not touch the data.
