@@ -28,7 +28,7 @@ bool ends_with(const std::string& s, const std::string& suffix) {
 }
 
 // libnifti prints diagnostics on stderr, some whatever its debug level (nifti_image_open's "bad header
-// info", nifti_image_read's "short header read"); ours are the one error line (DESIGN.md §10). So
+// info", nifti_image_read's "short header read"); ours are the one error line (DESIGN.md "Conventions"). So
 // while it runs, stderr is /dev/null: NIfTI files are opened and read on the command's own thread,
 // and no other thread of this process prints meanwhile (the lock keeps two readers from nesting).
 class QuietStderr {
@@ -64,12 +64,13 @@ class QuietStderr {
   int saved_ = -1;
 };
 
-struct NimFree {
+struct NiftiImageFree {
   void operator()(nifti_image* n) const { nifti_image_free(n); }
 };
-using Nim = std::unique_ptr<nifti_image, NimFree>;
+using NiftiImage = std::unique_ptr<nifti_image, NiftiImageFree>;
 
-template <class T> T get(const unsigned char* h, int offset, bool swap) {
+// The header field of type T at byte `offset`, byte-swapped when the file's order is not native.
+template <class T> T field_at(const unsigned char* h, int offset, bool swap) {
   T v;
   std::memcpy(&v, h + offset, sizeof v);
   if (swap) {
@@ -89,7 +90,7 @@ std::string why_refused(const std::string& path) {
   gzclose(g);
   if (n < 0) return "gzip data are corrupt";
   if (n < 348) return "file is shorter than a NIfTI-1 header (" + std::to_string(n) + " of 348 bytes)";
-  const std::int32_t size = get<std::int32_t>(h, 0, false), swapped = get<std::int32_t>(h, 0, true);
+  const std::int32_t size = field_at<std::int32_t>(h, 0, false), swapped = field_at<std::int32_t>(h, 0, true);
   if (size == 540 || swapped == 540) {
     if (n < 540) return "file is shorter than a NIfTI-2 header (" + std::to_string(n) + " of 540 bytes)";
     if (std::memcmp(h + 4, "n+2", 3) != 0 && std::memcmp(h + 4, "ni2", 3) != 0) {
@@ -104,27 +105,42 @@ std::string why_refused(const std::string& path) {
   if (std::memcmp(h + 344, "ni1", 4) == 0) {
     return "header of a .hdr/.img pair (magic \"ni1\"), but its .img file cannot be read";
   }
-  const int ndim = get<std::int16_t>(h, 40, swap);
+  const int ndim = field_at<std::int16_t>(h, 40, swap);
   if (ndim < 1 || ndim > 7) return "dim[0] = " + std::to_string(ndim) + " is out of range 1..7";
   for (int i = 1; i <= ndim; ++i) {
-    const int d = get<std::int16_t>(h, 40 + 2 * i, swap);
+    const int d = field_at<std::int16_t>(h, 40 + 2 * i, swap);
     if (d < 1) return "dim[" + std::to_string(i) + "] = " + std::to_string(d) + " is not positive";
   }
   return "invalid NIfTI-1 header (datatype or vox_offset)";
 }
 
-// `path` opened with libnifti: the header, and the image file at the first voxel.
-class Opened {
+// A NIfTI file opened with libnifti: its header, and its image file positioned at the first voxel.
+class NiftiFile {
  public:
-  explicit Opened(const std::string& path) {
+  explicit NiftiFile(const std::string& path) {
+    const double vox_offset = check_stored_header(path, version_);
+    open_image(path, vox_offset);
+  }
+  ~NiftiFile() { znzclose(file_); }
+  NiftiFile(const NiftiFile&) = delete;
+  NiftiFile& operator=(const NiftiFile&) = delete;
+
+  const nifti_image& header() const { return *nim_; }
+  int version() const { return version_; }  // 1 or 2
+  nifti_image* nim() { return nim_.get(); }
+  znzFile file() { return file_; }
+
+ private:
+  // Reads the header alone and checks it as stored; sets `version` (1 or 2), returns vox_offset.
+  static double check_stored_header(const std::string& path, int& version) {
     // The header alone first: libnifti takes a NIfTI-1-sized header with a bad magic for ANALYZE 7.5,
     // which is not NIfTI (and has no orientation); the magic is checked here.
     void* raw = [&] {
       const QuietStderr quiet;
-      return nifti_read_header(path.c_str(), &version_, 1);
+      return nifti_read_header(path.c_str(), &version, 1);
     }();
     if (!raw) throw InputError(path, why_refused(path));
-    if (version_ != 1 && version_ != 2) {
+    if (version != 1 && version != 2) {
       std::free(raw);
       throw InputError(path, "header of an unknown NIfTI version (sizeof_hdr matches neither 348 nor 540 with its magic)");
     }
@@ -133,37 +149,42 @@ class Opened {
     const auto* h1 = static_cast<const nifti_1_header*>(raw);
     const auto* h2 = static_cast<const nifti_2_header*>(raw);
     char magic[4];
-    std::memcpy(magic, version_ == 2 ? h2->magic : h1->magic, sizeof magic);
+    std::memcpy(magic, version == 2 ? h2->magic : h1->magic, sizeof magic);
     // nifti_read_header returns the header in the file's byte order.
     const auto* bytes = static_cast<const unsigned char*>(raw);
-    const std::int32_t size = get<std::int32_t>(bytes, 0, false), want = version_ == 2 ? 540 : 348;
+    const std::int32_t size = field_at<std::int32_t>(bytes, 0, false), want = version == 2 ? 540 : 348;
     const bool swap = size != want;
-    if (swap && get<std::int32_t>(bytes, 0, true) != want) {
+    if (swap && field_at<std::int32_t>(bytes, 0, true) != want) {
       std::free(raw);
       throw InputError(path, "sizeof_hdr " + std::to_string(size) + " does not match its NIfTI-" +
-                                 std::to_string(version_) + " magic");
+                                 std::to_string(version) + " magic");
     }
-    const int dim_at = version_ == 2 ? 16 : 40;
+    const int dim_at = version == 2 ? 16 : 40;
     std::int64_t dim[8];
     for (int i = 0; i < 8; ++i) {
-      dim[i] = version_ == 2 ? get<std::int64_t>(bytes, dim_at + 8 * i, swap) : get<std::int16_t>(bytes, dim_at + 2 * i, swap);
+      dim[i] = version == 2 ? field_at<std::int64_t>(bytes, dim_at + 8 * i, swap) : field_at<std::int16_t>(bytes, dim_at + 2 * i, swap);
     }
-    const double vox_offset = version_ == 2 ? double(get<std::int64_t>(bytes, 168, swap)) : double(get<float>(bytes, 108, swap));
+    const double vox_offset = version == 2 ? double(field_at<std::int64_t>(bytes, 168, swap)) : double(field_at<float>(bytes, 108, swap));
     std::free(raw);
     const bool pair = magic[1] == 'i';
-    if (std::memcmp(magic, version_ == 2 ? "n+2" : "n+1", 4) != 0 && std::memcmp(magic, version_ == 2 ? "ni2" : "ni1", 4) != 0) {
-      throw InputError(path, version_ == 2 ? "bad NIfTI-2 magic (expected \"n+2\" or \"ni2\")"
-                                           : "bad NIfTI-1 magic (expected \"n+1\" or \"ni1\")");
+    if (std::memcmp(magic, version == 2 ? "n+2" : "n+1", 4) != 0 && std::memcmp(magic, version == 2 ? "ni2" : "ni1", 4) != 0) {
+      throw InputError(path, version == 2 ? "bad NIfTI-2 magic (expected \"n+2\" or \"ni2\")"
+                                          : "bad NIfTI-1 magic (expected \"n+1\" or \"ni1\")");
     }
     if (dim[0] < 1 || dim[0] > 7) throw InputError(path, "dim[0] = " + std::to_string(dim[0]) + " is out of range 1..7");
     for (int i = 1; i <= dim[0]; ++i) {
       if (dim[i] < 1) throw InputError(path, "dim[" + std::to_string(i) + "] = " + std::to_string(dim[i]) + " is not positive");
     }
-    const double first = pair ? 0.0 : version_ == 2 ? 544.0 : 352.0;  // header and extension flag
+    const double first = pair ? 0.0 : version == 2 ? 544.0 : 352.0;  // header and extension flag
     if (!(vox_offset >= first) || vox_offset > 1e15) {
       throw InputError(path, "vox_offset " + std::to_string(vox_offset) + " is invalid (at least " +
                                  std::to_string(int(first)) + " in a " + (pair ? ".img" : "single file") + ")");
     }
+    return vox_offset;
+  }
+
+  // Opens header and image through libnifti, the image file at the first voxel.
+  void open_image(const std::string& path, double vox_offset) {
     nifti_image* nim = nullptr;
     char mode[] = "rb";
     {
@@ -186,17 +207,8 @@ class Opened {
       throw InputError(path, "file ends before vox_offset " + std::to_string(nim_->iname_offset));
     }
   }
-  ~Opened() { znzclose(file_); }
-  Opened(const Opened&) = delete;
-  Opened& operator=(const Opened&) = delete;
 
-  const nifti_image& header() const { return *nim_; }
-  int version() const { return version_; }  // 1 or 2
-  nifti_image* nim() { return nim_.get(); }
-  znzFile file() { return file_; }
-
- private:
-  Nim nim_;
+  NiftiImage nim_;
   znzFile file_ = nullptr;
   int version_ = 0;
 };
@@ -252,8 +264,8 @@ template <class In> void scale_to_float(const std::byte* in, std::size_t count, 
 
 class NiftiSlabs final : public SlabReader {
  public:
-  explicit NiftiSlabs(const std::string& path) : path_(path), o_(path), desc_(desc_of(o_.header(), path)) {
-    const nifti_image& n = o_.header();
+  explicit NiftiSlabs(const std::string& path) : path_(path), nifti_(path), desc_(desc_of(nifti_.header(), path)) {
+    const nifti_image& n = nifti_.header();
     // An uncompressed image file is checked against the header now, so a short file is refused before
     // anything is read (gzip sizes are known only by reading: read() reports those).
     struct stat st {};
@@ -267,7 +279,7 @@ class NiftiSlabs final : public SlabReader {
   const VolumeDesc& desc() const override { return desc_; }
 
   void read(int z0, int nz, std::byte* dst) override {
-    const nifti_image& n = o_.header();
+    const nifti_image& n = nifti_.header();
     const std::size_t count = std::size_t(desc_.dims.x) * std::size_t(desc_.dims.y) * std::size_t(nz);
     const std::size_t in_bytes = count * std::size_t(n.nbyper);
     const bool convert = n.datatype != DT_FLOAT32 && desc_.type == VoxelType::F32;
@@ -281,7 +293,7 @@ class NiftiSlabs final : public SlabReader {
     // nifti_read_buffer swaps to native order (and zeroes non-finite floats).
     const bool complete = [&] {
       const QuietStderr quiet;
-      return nifti_read_buffer(o_.file(), in, std::int64_t(in_bytes), o_.nim()) == std::int64_t(in_bytes);
+      return nifti_read_buffer(nifti_.file(), in, std::int64_t(in_bytes), nifti_.nim()) == std::int64_t(in_bytes);
     }();
     if (!complete) {
       throw InputError(path_, ends_with(n.iname ? n.iname : "", ".gz")
@@ -303,7 +315,7 @@ class NiftiSlabs final : public SlabReader {
 
  private:
   std::string path_;
-  Opened o_;
+  NiftiFile nifti_;
   VolumeDesc desc_;
 };
 
@@ -351,13 +363,13 @@ bool is_nifti_path(const std::string& path) {
 }
 
 NiftiInfo nifti_info(const std::string& path) {
-  const Opened o(path);
-  const nifti_image& n = o.header();
+  const NiftiFile f(path);
+  const nifti_image& n = f.header();
   const VolumeDesc d = desc_of(n, path);
   NiftiInfo info;
   // libnifti's nifti_type says one file or two, but in NIfTI-1 codes for NIfTI-2 files too.
   const bool two = n.nifti_type == NIFTI_FTYPE_NIFTI1_2 || n.nifti_type == NIFTI_FTYPE_NIFTI2_2;
-  info.format = std::string(o.version() == 2 ? "NIfTI-2" : "NIfTI-1") +
+  info.format = std::string(f.version() == 2 ? "NIfTI-2" : "NIfTI-1") +
                 (two ? ", .hdr/.img pair" : ", single file") + ", " + nifti_datatype_string(n.datatype) + " stored";
   info.scaling = scaled(n) ? "slope " + number(n.scl_slope) + " inter " + number(n.scl_inter) + " (read as " +
                                  to_string(d.type) + ")"

@@ -65,54 +65,64 @@ PageFormat page_format(TIFF* t, const std::string& who) {
   return f;
 }
 
-// Reads the current page into dst (width * height voxels, x fastest).
-void read_page(TIFF* t, const PageFormat& f, std::byte* dst, const std::string& who) {
+// Throws InputError(who, what), with libtiff's last error of this thread when it reported one.
+[[noreturn]] void fail(const std::string& who, const std::string& what) {
+  throw InputError(who, what + (t_tiff_error.empty() ? "" : " (" + t_tiff_error + ")"));
+}
+
+void read_tiles(TIFF* t, const PageFormat& f, std::byte* dst, const std::string& who) {
   const std::size_t elem = std::size_t(voxel_size(f.type));
-  const auto fail = [&](const char* what) {
-    throw InputError(who, std::string(what) + (t_tiff_error.empty() ? "" : " (" + t_tiff_error + ")"));
+  std::uint32_t tw = 0, th = 0;
+  TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
+  TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
+  // Checked before the tile buffer is allocated: a corrupt tile width would make it gigabytes for a
+  // small page. A tile covers at most the page rounded up to libtiff's 16-pixel tile grid, or 4096
+  // pixels (writers use 256-1024 whatever the page size); and a 2-D grayscale tile is exactly tw x th
+  // samples (no tile depth).
+  const auto plausible = [](std::uint32_t tile, int page) {
+    return tile > 0 && tile <= std::max<std::uint32_t>(4096, (std::uint32_t(page) + 15) / 16 * 16);
   };
-  t_tiff_error.clear();
-  if (TIFFIsTiled(t)) {
-    std::uint32_t tw = 0, th = 0;
-    TIFFGetField(t, TIFFTAG_TILEWIDTH, &tw);
-    TIFFGetField(t, TIFFTAG_TILELENGTH, &th);
-    // Checked before the tile buffer is allocated: a corrupt tile width (a 386-byte file found by
-    // tests/fuzz claimed 268435456) would make it gigabytes for a small page. A tile covers at most
-    // the page rounded up to libtiff's 16-pixel tile grid, or 4096 pixels (writers use 256-1024
-    // whatever the page size); and a 2-D grayscale tile is exactly tw x th samples (no tile depth).
-    const auto plausible = [](std::uint32_t tile, int page) {
-      return tile > 0 && tile <= std::max<std::uint32_t>(4096, (std::uint32_t(page) + 15) / 16 * 16);
-    };
-    if (!plausible(tw, f.width) || !plausible(th, f.height) ||
-        TIFFTileSize64(t) != std::uint64_t(tw) * th * elem) {
-      fail(("bad tile size " + std::to_string(tw) + "x" + std::to_string(th) + " for a " + std::to_string(f.width) +
-            "x" + std::to_string(f.height) + " page").c_str());
-    }
-    std::vector<std::byte> tile(std::size_t(tw) * th * elem);
-    for (std::uint32_t y0 = 0; y0 < std::uint32_t(f.height); y0 += th) {
-      for (std::uint32_t x0 = 0; x0 < std::uint32_t(f.width); x0 += tw) {
-        if (TIFFReadTile(t, tile.data(), x0, y0, 0, 0) < 0) fail("cannot read a tile");
-        const std::uint32_t nx = std::min(tw, std::uint32_t(f.width) - x0), ny = std::min(th, std::uint32_t(f.height) - y0);
-        for (std::uint32_t y = 0; y < ny; ++y) {
-          std::memcpy(dst + (std::size_t(y0 + y) * std::size_t(f.width) + x0) * elem, tile.data() + std::size_t(y) * tw * elem,
-                      std::size_t(nx) * elem);
-        }
+  if (!plausible(tw, f.width) || !plausible(th, f.height) || TIFFTileSize64(t) != std::uint64_t(tw) * th * elem) {
+    fail(who, "bad tile size " + std::to_string(tw) + "x" + std::to_string(th) + " for a " + std::to_string(f.width) +
+                  "x" + std::to_string(f.height) + " page");
+  }
+  std::vector<std::byte> tile(std::size_t(tw) * th * elem);
+  for (std::uint32_t y0 = 0; y0 < std::uint32_t(f.height); y0 += th) {
+    for (std::uint32_t x0 = 0; x0 < std::uint32_t(f.width); x0 += tw) {
+      if (TIFFReadTile(t, tile.data(), x0, y0, 0, 0) < 0) fail(who, "cannot read a tile");
+      const std::uint32_t nx = std::min(tw, std::uint32_t(f.width) - x0), ny = std::min(th, std::uint32_t(f.height) - y0);
+      for (std::uint32_t y = 0; y < ny; ++y) {
+        std::memcpy(dst + (std::size_t(y0 + y) * std::size_t(f.width) + x0) * elem, tile.data() + std::size_t(y) * tw * elem,
+                    std::size_t(nx) * elem);
       }
     }
-    return;
   }
-  if (std::size_t(TIFFScanlineSize(t)) != std::size_t(f.width) * elem) fail("unexpected scanline size");
+}
+
+void read_scanlines(TIFF* t, const PageFormat& f, std::byte* dst, const std::string& who) {
+  const std::size_t elem = std::size_t(voxel_size(f.type));
+  if (std::size_t(TIFFScanlineSize(t)) != std::size_t(f.width) * elem) fail(who, "unexpected scanline size");
   for (int y = 0; y < f.height; ++y) {
     if (TIFFReadScanline(t, dst + std::size_t(y) * std::size_t(f.width) * elem, std::uint32_t(y), 0) < 0) {
-      fail(("cannot read row " + std::to_string(y)).c_str());
+      fail(who, "cannot read row " + std::to_string(y));
     }
+  }
+}
+
+// Reads the current page into dst (width * height voxels, x fastest).
+void read_page(TIFF* t, const PageFormat& f, std::byte* dst, const std::string& who) {
+  t_tiff_error.clear();
+  if (TIFFIsTiled(t)) {
+    read_tiles(t, f, dst, who);
+  } else {
+    read_scanlines(t, f, dst, who);
   }
 }
 
 Tiff open_tiff(const std::string& file) {
   t_tiff_error.clear();
   Tiff t(TIFFOpen(file.c_str(), "r"));
-  if (!t) throw InputError(file, "cannot open as TIFF" + (t_tiff_error.empty() ? "" : " (" + t_tiff_error + ")"));
+  if (!t) fail(file, "cannot open as TIFF");
   return t;
 }
 
@@ -134,9 +144,9 @@ class TiffStack final : public SlabReader {
       fmt_ = page_format(t.get(), files_[0]);
       depth_ = int(files_.size());
     } else {
-      multi_ = open_tiff(path);
-      fmt_ = page_format(multi_.get(), path);
-      const tdir_t n = TIFFNumberOfDirectories(multi_.get());
+      multipage_ = open_tiff(path);
+      fmt_ = page_format(multipage_.get(), path);
+      const tdir_t n = TIFFNumberOfDirectories(multipage_.get());
       if (n < 1) throw InputError(path, "no pages");
       depth_ = int(n);
     }
@@ -150,10 +160,10 @@ class TiffStack final : public SlabReader {
   void read(int z0, int nz, std::byte* dst) override {
     const std::size_t plane = std::size_t(fmt_.width) * std::size_t(fmt_.height) * std::size_t(voxel_size(fmt_.type));
     for (int z = z0; z < z0 + nz; ++z, dst += plane) {
-      if (multi_) {
-        if (z > 0 && !TIFFReadDirectory(multi_.get())) throw InputError(path_, "page " + std::to_string(z) + " is missing");
-        check_same(page_format(multi_.get(), path_), path_ + " page " + std::to_string(z));
-        read_page(multi_.get(), fmt_, dst, path_ + " page " + std::to_string(z));
+      if (multipage_) {
+        if (z > 0 && !TIFFReadDirectory(multipage_.get())) throw InputError(path_, "page " + std::to_string(z) + " is missing");
+        check_same(page_format(multipage_.get(), path_), path_ + " page " + std::to_string(z));
+        read_page(multipage_.get(), fmt_, dst, path_ + " page " + std::to_string(z));
       } else {
         const std::string& f = files_[std::size_t(z)];
         Tiff t = open_tiff(f);
@@ -174,7 +184,7 @@ class TiffStack final : public SlabReader {
 
   std::string path_;
   std::vector<std::string> files_;
-  Tiff multi_;
+  Tiff multipage_;
   PageFormat fmt_;
   int depth_ = 0;
   VolumeDesc desc_;

@@ -1,4 +1,4 @@
-// NIfTI through libnifti2 (cache/formats/nifti.h) against nibabel (tests/data_tools/nifti_tool.py):
+// NIfTI through libnifti2 (cache/formats/nifti/nifti.h) against nibabel (tests/data_tools/nifti_tool.py):
 // NIfTI-1 and -2, single files and .hdr/.img pairs, gzip, both byte orders, scl_slope/scl_inter, read
 // voxel for voxel; the orientation `info` reports from the sform.
 #include <gtest/gtest.h>
