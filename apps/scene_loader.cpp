@@ -168,7 +168,7 @@ template <class Source> void fill_store_scene(SourceScene& s, std::shared_ptr<So
 }
 
 SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
-  // Remote stores opened from here on read through the disk cache (store_url.h).
+  // Remote stores opened from here on read through the disk cache (cache/stores/store_url.h).
   set_disk_cache(o.disk_cache.empty() ? nullptr
                                       : std::make_shared<DiskCache>(o.disk_cache, std::uint64_t(o.disk_cache_mb > 0 ? o.disk_cache_mb : 1024) << 20));
   SourceScene s;

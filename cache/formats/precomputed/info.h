@@ -3,11 +3,12 @@
 // finest first, each with "key" (its directory), "size", "resolution" (nm per voxel), "voxel_offset",
 // "chunk_sizes" (the first is read), "encoding" (raw or compressed_segmentation, the latter with
 // "compressed_segmentation_block_size") and optional "sharding" (neuroglancer_uint64_sharded_v1,
-// precomputed_shard.h).
+// shard.h).
 //
-// Mapping to sparseleap's volume (DESIGN.md §3): x, y, z as stored (precomputed chunks are x fastest, as
-// Volume is); scale i is level i, so each scale must halve the one before it in x, y and z (ceil or floor
-// of an odd size), the rule OME-Zarr levels follow (zarr_meta.h); level 0's resolution is the spacing.
+// Mapping to sparseleap's volume (DESIGN.md "Data model"): x, y, z as stored (precomputed chunks are x
+// fastest, as Volume is); scale i is level i, so each scale must halve the one before it in x, y and z
+// (ceil or floor of an odd size), the rule OME-Zarr levels follow (zarr/meta.h); level 0's resolution is
+// the spacing.
 #pragma once
 
 #include <cstdint>

@@ -1,7 +1,8 @@
-// The sharded format's addressing (precomputed_shard.h) on values worked out by hand: compressed Morton
-// codes (including the worked example in the VNC shard-debugging notes: chunk (335, 438, 1024) of a
-// 671 x 877 x 1286 grid is 0x434522d9), shard file names and minishard/shard bits, and index decoding.
-// tensorstore-written shards (precomputed_interop_test.cpp) check the hash and the whole read.
+// The sharded format's addressing (cache/formats/precomputed/shard.h) on values worked out by hand:
+// compressed Morton codes (including the worked example in the VNC shard-debugging notes: chunk
+// (335, 438, 1024) of a 671 x 877 x 1286 grid is 0x434522d9), shard file names and minishard/shard bits,
+// and index decoding.
+// tensorstore-written shards (interop_test.cpp) check the hash and the whole read.
 #include <gtest/gtest.h>
 
 #include <stdexcept>
