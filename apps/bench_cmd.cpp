@@ -7,7 +7,7 @@
 #include "apps/bench/bench_run.h"
 #include "apps/commands.h"
 #include "apps/render_options.h"
-#include "cache/formats/counting_byte_store.h"
+#include "cache/stores/counting_byte_store.h"
 #include "core/scene/camera_path.h"
 #include "core/util/error.h"
 #include "core/util/parallel.h"

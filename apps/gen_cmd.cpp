@@ -7,7 +7,7 @@
 #include "apps/outputs.h"
 #include "apps/scene_loader.h"
 #include "core/scene/generate.h"
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/util/error.h"
 #include "core/frame/stats.h"
 

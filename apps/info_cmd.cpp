@@ -4,15 +4,15 @@
 #include <memory>
 
 #include "apps/commands.h"
-#include "cache/formats/nifti.h"
-#include "cache/formats/nrrd.h"
-#include "cache/formats/store_url.h"
-#include "cache/formats/precomputed_source.h"
-#include "cache/formats/store_kind.h"
+#include "cache/formats/nifti/nifti.h"
+#include "cache/formats/nrrd/nrrd.h"
+#include "cache/stores/store_url.h"
+#include "cache/formats/precomputed/source.h"
+#include "cache/stores/store_kind.h"
 #include "cache/formats/volume_file.h"
-#include "cache/formats/zarr3_codec.h"
-#include "cache/formats/zarr_meta.h"
-#include "cache/formats/zarr_source.h"
+#include "cache/formats/zarr/v3_codec.h"
+#include "cache/formats/zarr/meta.h"
+#include "cache/formats/zarr/source.h"
 #include "core/util/error.h"
 
 namespace sl::app {

@@ -8,7 +8,7 @@
 #include "apps/outputs.h"
 #include "apps/render_options.h"
 #include "apps/scene_renderer.h"
-#include "cache/formats/store_url.h"
+#include "cache/stores/store_url.h"
 #include "core/util/atomic_file.h"
 #include "core/util/error.h"
 #include "core/util/parallel.h"

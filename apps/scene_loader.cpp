@@ -6,15 +6,15 @@
 #include "cache/testing/fault_injection.h"
 #include "core/scene/generate.h"
 #include "cache/synthetic/procedural_neurites.h"
-#include "cache/formats/counting_byte_store.h"
-#include "cache/formats/disk_cache.h"
-#include "cache/formats/nrrd.h"
-#include "cache/formats/precomputed_source.h"
-#include "cache/formats/store_kind.h"
-#include "cache/formats/store_url.h"
+#include "cache/stores/counting_byte_store.h"
+#include "cache/stores/disk_cache.h"
+#include "cache/formats/nrrd/nrrd.h"
+#include "cache/formats/precomputed/source.h"
+#include "cache/stores/store_kind.h"
+#include "cache/stores/store_url.h"
 #include "cache/formats/volume_file.h"
-#include "cache/formats/zarr_meta.h"
-#include "cache/formats/zarr_source.h"
+#include "cache/formats/zarr/meta.h"
+#include "cache/formats/zarr/source.h"
 #include "core/util/error.h"
 
 #include <unistd.h>
@@ -168,7 +168,7 @@ template <class Source> void fill_store_scene(SourceScene& s, std::shared_ptr<So
 }
 
 SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
-  // Remote stores opened from here on read through the disk cache (store_url.h).
+  // Remote stores opened from here on read through the disk cache (cache/stores/store_url.h).
   set_disk_cache(o.disk_cache.empty() ? nullptr
                                       : std::make_shared<DiskCache>(o.disk_cache, std::uint64_t(o.disk_cache_mb > 0 ? o.disk_cache_mb : 1024) << 20));
   SourceScene s;

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <span>
 #include <string>
@@ -12,8 +13,8 @@
 
 #include "cache/brick.h"
 
-#include "core/util/math.h"
 #include "core/scene/volume.h"
+#include "core/util/math.h"
 
 namespace sl {
 
@@ -28,6 +29,9 @@ Volume read_chunked_level(const VolumeDesc& d, ivec3 chunk, const ReadBox& read,
 
 // Copies level voxels [first, first + n), each coordinate clamped to the dims of `v`, into dst.
 void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst);
+
+// Largest coarsest stored level that levels are derived from (in memory, at construction of a source).
+inline constexpr std::uint64_t kMaxDerivedBaseBytes = std::uint64_t(512) << 20;
 
 // Derived levels: 2x reductions of `base` until 1³ (mode for labels, mean otherwise).
 std::vector<Volume> derive_levels(const Volume& base, bool labels);

@@ -1,6 +1,6 @@
-// `sparseleap ingest`: converting a volume file (NRRD, a TIFF stack, NIfTI-1) into an OME-Zarr store
-// (zarr_writer.h) with the full 2x pyramid of DESIGN.md §3, slab by slab, so memory stays bounded
-// however deep the input is.
+// `sparseleap ingest`: converting a volume file (NRRD, a TIFF stack, NIfTI; volume_file.h) into an
+// OME-Zarr store (zarr/writer.h) with the full 2x pyramid of DESIGN.md "Data model", slab by slab, so
+// memory stays bounded however deep the input is.
 //
 // The input is read one chunk layer (chunk-edge z-planes) at a time. Level l keeps one layer buffer of
 // its own; a full layer is written as chunks and reduced 2x into the next level's buffer (which fills
@@ -8,7 +8,7 @@
 //   (4/3) * chunk * X * Y * bytes_per_voxel      (+ the same for labels, with their voxel size)
 // plus one chunk per worker thread for encoding: memory_bound() computes it. It depends on the slice
 // size X * Y and the chunk edge, never on the depth Z.
-// Levels continue until one chunk holds the level; readers derive coarser ones (zarr_source.h).
+// Levels continue until one chunk holds the level; readers derive coarser ones (zarr/source.h).
 #pragma once
 
 #include <cstdint>
@@ -18,16 +18,10 @@
 #include <string>
 
 #include "cache/formats/slab_reader.h"
-#include "cache/formats/zarr_codec.h"
+#include "cache/formats/zarr/compressor.h"
 #include "core/scene/volume.h"
 
 namespace sl {
-
-// Chooses the reader by name: .nrrd/.nhdr (raw or gzip), .tif/.tiff (one multipage file) or a
-// directory of .tif/.tiff files (one slice each, sorted by name), .nii/.nii.gz. Throws InputError.
-std::unique_ptr<SlabReader> open_slab_reader(const std::string& path);
-// The NRRD reader, streaming (raw: sequential reads; gzip: inflated as it goes).
-std::unique_ptr<SlabReader> open_nrrd_slabs(const std::string& path);
 
 struct IngestOptions {
   int chunk = 64;                     // chunk edge; even, 8-512

@@ -1,13 +1,20 @@
-// A volume file read whole into memory, whatever its format: NRRD (nrrd.h), NIfTI-1 (.nii, .nii.gz) or a
-// TIFF stack (one multipage file or a directory of slices), the latter two through their slab readers
-// (slab_reader.h) — the same readers `ingest` streams. Used by render, bench, view and info.
+// A volume file, whatever its format, chosen by name: NRRD (nrrd/nrrd.h), NIfTI (nifti/nifti.h) or a TIFF
+// stack (tiff/tiff_stack.h: one multipage file or a directory of slices). Streamed through its slab
+// reader (slab_reader.h) by `ingest`, or read whole into memory (NRRD by its own whole-file reader) by
+// render, bench, view and info.
 #pragma once
 
+#include <memory>
 #include <string>
 
+#include "cache/formats/slab_reader.h"
 #include "core/scene/volume.h"
 
 namespace sl {
+
+// Chooses the reader by name: .nrrd/.nhdr (raw or gzip), .tif/.tiff (one multipage file) or a
+// directory of .tif/.tiff files (one slice each, sorted by name), .nii/.nii.gz. Throws InputError.
+std::unique_ptr<SlabReader> open_slab_reader(const std::string& path);
 
 // True for the names open_slab_reader() takes that are not NRRD (.nii, .nii.gz, .tif, .tiff, a directory).
 bool is_slab_volume_path(const std::string& path);

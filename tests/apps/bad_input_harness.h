@@ -24,7 +24,7 @@
 #include <thread>
 #include <vector>
 
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/scene/generate.h"
 #include "core/scene/volume.h"
 #include "tests/test_util.h"

@@ -9,7 +9,7 @@
 #include <limits>
 
 #include "core/scene/generate.h"
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/util/image.h"
 #include "tests/test_util.h"
 

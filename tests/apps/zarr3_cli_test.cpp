@@ -5,7 +5,7 @@
 
 #include <filesystem>
 
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/scene/generate.h"
 #include "tests/cache/formats/zarr_test_util.h"
 #include "tests/test_util.h"

@@ -23,7 +23,8 @@ ROOMS = [
     ["core/lists"],
     ["core/cast"],
     ["core/frame"],
-    ["cache"],
+    ["cache", "cache/stores"],
+    ["cache/formats", "cache/synthetic", "cache/out_of_core", "cache/testing"],
     ["gl", "cuda"],
     ["apps"],
 ]

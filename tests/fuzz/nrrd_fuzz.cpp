@@ -1,11 +1,10 @@
-// NRRD header and data (cache/formats/nrrd*.cpp, and ingest's streaming reader): the input is the
+// NRRD header and data (cache/formats/nrrd/: the whole-file reader and the streaming slab reader): the input is the
 // file; a part after the line "--data-file--" becomes `data.raw` beside it, for detached headers
 // (`data file: data.raw`). Both readers run: read_nrrd (whole volume) and the slab reader.
 #include <cstdint>
 #include <vector>
 
-#include "cache/formats/ingest.h"
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
 #include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 

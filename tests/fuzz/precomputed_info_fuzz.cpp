@@ -1,5 +1,5 @@
-// Neuroglancer precomputed volumes (cache/formats/precomputed_info.cpp, precomputed_source.cpp and the
-// chunk and shard decoding behind them): the input is cut at the first NUL byte (which JSON text cannot
+// Neuroglancer precomputed volumes (cache/formats/precomputed/: info.cpp, source.cpp and the chunk and
+// shard decoding behind them): the input is cut at the first NUL byte (which JSON text cannot
 // hold) into the `info` file and the bytes every other object of the volume holds (an unsharded chunk,
 // or a shard file). The info is parsed and, when it is, the first chunk of every scale read through an
 // in-memory ByteStore, so sharding, raw, gzip and compressed_segmentation decoding all see fuzzed bytes.
@@ -8,7 +8,7 @@
 #include <memory>
 #include <vector>
 
-#include "cache/formats/precomputed_source.h"
+#include "cache/formats/precomputed/source.h"
 #include "core/util/error.h"
 #include "tests/fuzz/fuzz_util.h"
 

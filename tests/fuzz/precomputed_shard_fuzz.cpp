@@ -1,4 +1,4 @@
-// neuroglancer_uint64_sharded_v1 index decoding (cache/formats/precomputed_shard.cpp): byte 0 picks the
+// neuroglancer_uint64_sharded_v1 index decoding (cache/formats/precomputed/shard.cpp): byte 0 picks the
 // sharding (bit 0: gzip minishard index; bit 1: murmurhash3_x86_128; bits 2-7: minishard_bits), bytes
 // 1-16 are a shard index entry, the rest a stored minishard index. Both are decoded, and every chunk id
 // the minishard index lists is located (hash, minishard, shard file name) as a read would.
@@ -6,7 +6,7 @@
 #include <span>
 #include <stdexcept>
 
-#include "cache/formats/precomputed_shard.h"
+#include "cache/formats/precomputed/shard.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

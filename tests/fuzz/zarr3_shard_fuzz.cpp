@@ -1,4 +1,4 @@
-// The Zarr v3 shard (cache/formats/zarr3_codec.cpp, sharding_indexed): the input is an array's
+// The Zarr v3 shard (cache/formats/zarr/v3_chunk.cpp, sharding_indexed): the input is an array's
 // zarr.json, a NUL byte, and the bytes of its first shard. The index (at the start or the end, through
 // its own codecs, crc32c verified) is decoded and every inner chunk of the shard is read by its byte
 // range and decoded: offsets and sizes past the object, overlapping or half-empty entries, corrupt
@@ -11,10 +11,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "cache/formats/byte_store.h"
-#include "cache/formats/zarr3_codec.h"
-#include "cache/formats/zarr3_meta.h"
-#include "cache/formats/zarr_array.h"
+#include "cache/formats/zarr/array.h"
+#include "cache/formats/zarr/v3_array.h"
+#include "cache/formats/zarr/v3_chunk.h"
+#include "cache/stores/byte_store.h"
 #include "tests/fuzz/fuzz_util.h"
 
 SL_FUZZ_TARGET(input) {

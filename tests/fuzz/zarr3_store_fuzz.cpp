@@ -1,11 +1,11 @@
-// OME-Zarr v3 stores (NGFF 0.5; cache/formats/zarr_meta.cpp's group and "ome" attributes,
-// zarr3_meta.cpp's array zarr.json, zarr3_codec.cpp's codec chains and shard reads): the input is cut
+// OME-Zarr v3 stores (NGFF 0.5; in cache/formats/zarr/: meta.cpp's group and "ome" attributes,
+// v3_array.cpp's array zarr.json, v3_codec.cpp's codec chains, v3_chunk.cpp's shard reads): the input is cut
 // at NUL bytes into the root zarr.json, level "0"'s zarr.json (with an empty root: written as the
 // root, a bare array), level "1"'s zarr.json and the bytes of level 0's first chunk (its first shard
 // when sharded, index included). The store is opened and the first chunk's box of every level read.
 #include "tests/fuzz/zarr_fuzz_util.h"
 
-#include "cache/formats/zarr3_codec.h"
+#include "cache/formats/zarr/v3_codec.h"
 
 SL_FUZZ_TARGET(input) {
   const auto parts = sl::fuzz::split(input, std::string_view("\0", 1), 4);

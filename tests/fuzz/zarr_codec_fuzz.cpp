@@ -1,4 +1,4 @@
-// Zarr chunk codecs in memory (cache/formats/zarr_codec.cpp): byte 0 picks the codec (none, zlib,
+// Zarr chunk codecs in memory (cache/formats/zarr/compressor.cpp): byte 0 picks the codec (none, zlib,
 // gzip, zstd, blosc), bytes 1-2 the decoded size (little-endian, + 1), the rest is the chunk. Every
 // input is also encoded and decoded again, which must give it back (what the writer stores, the
 // reader reads).
@@ -7,7 +7,7 @@
 #include <stdexcept>
 #include <vector>
 
-#include "cache/formats/zarr_codec.h"
+#include "cache/formats/zarr/compressor.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace {

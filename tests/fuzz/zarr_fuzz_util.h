@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "cache/formats/zarr_array.h"
-#include "cache/formats/zarr_meta.h"
+#include "cache/formats/zarr/array.h"
+#include "cache/formats/zarr/meta.h"
 #include "tests/fuzz/fuzz_util.h"
 
 namespace sl::fuzz {

@@ -1,5 +1,5 @@
-// OME-Zarr v2 stores (cache/formats/zarr_meta.cpp, zarr_array.cpp and every codec of zarr_codec.cpp
-// behind them): the input is cut at NUL bytes (which JSON text cannot hold) into the root `.zattrs`
+// OME-Zarr v2 stores (cache/formats/zarr/: meta.cpp, v2_array.cpp, array.cpp and every codec of
+// compressor.cpp behind them): the input is cut at NUL bytes (which JSON text cannot hold) into the root `.zattrs`
 // (none when empty), a `.zarray` written both as the bare array and as level "0", the `.zarray` of
 // level "1", and the bytes of level 0's first chunk. The store is opened and the first chunk's box of
 // every level read (level 1's chunks are missing, so they read as the fill value).

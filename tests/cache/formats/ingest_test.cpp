@@ -7,9 +7,9 @@
 #include <filesystem>
 
 #include "cache/formats/ingest.h"
-#include "cache/formats/nrrd.h"
+#include "cache/formats/nrrd/nrrd.h"
+#include "cache/formats/zarr/source.h"
 #include "cache/volume_source.h"
-#include "cache/formats/zarr_source.h"
 #include "core/util/error.h"
 #include "tests/cache/formats/zarr_test_util.h"
 #include "tests/test_util.h"

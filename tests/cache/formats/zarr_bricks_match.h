@@ -1,6 +1,6 @@
-// The check both Zarr interop suites (v2: zarr_interop_test.cpp, v3: zarr3_interop_test.cpp) make of
-// a store a peer wrote (and the precomputed suite, precomputed_interop_test.cpp): every brick a chunked-store
-// source cuts equals the peer's expected voxels.
+// The check both Zarr interop suites (v2: zarr/interop_test.cpp, v3: zarr/v3_interop_test.cpp) make of
+// a store a peer wrote (and the precomputed suite, precomputed/interop_test.cpp): every brick a
+// chunked-store source cuts equals the peer's expected voxels.
 #pragma once
 
 #include <gtest/gtest.h>
@@ -10,7 +10,7 @@
 #include <memory>
 #include <vector>
 
-#include "cache/formats/zarr_source.h"
+#include "cache/formats/zarr/source.h"
 #include "cache/volume_source.h"
 #include "tests/cache/formats/zarr_test_util.h"
 

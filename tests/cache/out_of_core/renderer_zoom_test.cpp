@@ -10,8 +10,8 @@
 #include <memory>
 
 #include "cache/formats/ingest.h"
-#include "cache/formats/nrrd.h"
-#include "cache/formats/zarr_source.h"
+#include "cache/formats/nrrd/nrrd.h"
+#include "cache/formats/zarr/source.h"
 #include "cache/out_of_core/renderer.h"
 #include "core/frame/in_core_renderer.h"
 #include "tests/test_util.h"
