@@ -26,7 +26,7 @@ std::string camera_path_to_json(const CameraPath& p);
 // A full orbit of `frames` frames around the volume centre, starting at the default view.
 CameraPath orbit_path(const vec3& extent, int frames);
 // The orbit while the distance to the centre oscillates `cycles` times between the default view's
-// and `closest` times it, so the level of detail changes back and forth (soak tests, issue 14).
+// and `closest` times it, so the level of detail changes back and forth (soak tests).
 CameraPath orbit_zoom_path(const vec3& extent, int frames, int cycles = 3, float closest = 0.25f);
 // From the default view straight towards the centre, the distance shrinking geometrically to
 // `closest` times the start's (convergence under zoom, prefetch measurements).

@@ -1,4 +1,4 @@
-// The bounds pyramid for culling (DESIGN.md §4, "metadata is a min/max pyramid"; cache/pyramid.h,
+// The bounds pyramid for culling (DESIGN.md "Virtual memory": "metadata is a min/max pyramid"; cache/pyramid.h,
 // VolumeSource::bound_blocks): a coarse voxel bounds every level-0 voxel below it, and a coarse
 // culling block's metadata covers every level-0 voxel below its dilated box — exactly, not just
 // conservatively — for in-memory volumes and the procedural source's exact levels.

@@ -130,7 +130,7 @@ TEST(BrickLoader, CollectNeverWaitsForLoads) {
   EXPECT_EQ(loader.collect(100).bricks.size() + loader.failed_count(), 2u);
 }
 
-// Prefetch (issue 14): a prefetch starts only when no request waits, and requesting a queued
+// Prefetch: a prefetch starts only when no request waits, and requesting a queued
 // prefetch promotes it ahead of the other prefetches.
 TEST(BrickLoader, PrefetchWaitsForRequestsAndARequestPromotesIt) {
   const auto gated = std::make_shared<GatedSource>(neurites_source());

@@ -1,4 +1,4 @@
-// The bounded block-metadata cache of the out-of-core renderer (issue 14): least recently used blocks
+// The bounded block-metadata cache of the out-of-core renderer: least recently used blocks
 // go first, blocks of the last two frames never, and the memory it reports follows what it holds.
 #include "cache/metadata_cache.h"
 

@@ -130,7 +130,7 @@ TEST(PageTable, ChunksAllocatedOnTouchAndReleased) {
   EXPECT_EQ(pt.get(BrickId::pack(0, {3, 3, 3})).state(), PageEntry::State::Unmapped);
 }
 
-// DESIGN.md §4: a 30-million-brick level costs memory only where rays went.
+// DESIGN.md "Virtual memory": a 30-million-brick level costs memory only where rays went.
 TEST(PageTable, HugeLevelCostsOnlyTouchedChunks) {
   const BrickLayout l = BrickLayout::make(ivec3(10000, 10000, 10000), vec3(1.0f), 32);
   ASSERT_GT(l.brick_count(0), 30'000'000u);  // 313³ = 30.7 M bricks at level 0

@@ -1,7 +1,7 @@
 // PrecomputedVolumeSource: a Neuroglancer precomputed volume (precomputed_info.h), and optionally a
-// second one holding its segmentation labels, behind the VolumeSource interface (DESIGN.md §3), read
+// second one holding its segmentation labels, behind the VolumeSource interface (DESIGN.md "Data model"), read
 // lazily chunk by chunk through a ByteStore (a local directory, or HTTP), so a volume far larger than
-// memory renders out of core (DESIGN.md §4). Unsharded chunks are objects
+// memory renders out of core (DESIGN.md "Virtual memory"). Unsharded chunks are objects
 // "KEY/x0-x1_y0-y1_z0-z1"; sharded ones are fetched by byte range from their shard (precomputed_shard.h).
 // A chunk that is not stored reads as zeros. Decoded chunks go through a zarr::ChunkCache, and the
 // levels the volume lacks below its coarsest scale are derived as ZarrVolumeSource derives them

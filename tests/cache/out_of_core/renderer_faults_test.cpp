@@ -1,4 +1,4 @@
-// The out-of-core renderer under injected I/O faults (issue 15): it renders every frame, reports each
+// The out-of-core renderer under injected I/O faults: it renders every frame, reports each
 // failed brick once, retries transient faults, converges, and equals the in-core image wherever no
 // ray touches a brick that failed for good.
 #include <gtest/gtest.h>

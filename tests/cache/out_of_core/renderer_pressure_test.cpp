@@ -1,4 +1,4 @@
-// Out of core under cache pressure (issue 14, DESIGN.md §4): on a 256x192x128 u16 volume with u16
+// Out of core under cache pressure (DESIGN.md "Virtual memory"): on a 256x192x128 u16 volume with u16
 // labels (24 MiB together), caches below the view's working set must neither thrash nor stall; the
 // automatic level of detail coarsens until the view fits and the frame is complete at its chosen
 // levels; a pinned level reports the size it needs; a quarter-size cache whose view fits converges to

@@ -147,7 +147,7 @@ TEST(OutOfCore, TreeAndCacheFallBackAfterTheCameraMovesAway) {
   EXPECT_LE(f.stats.cache.resident_mb, double(os.cache_mb));
 }
 
-// DESIGN.md §5: a transfer-function or label change re-culls the tree from the cached metadata
+// DESIGN.md "Occupancy histogram tree": a transfer-function or label change re-culls the tree from the cached metadata
 // (OccupancyTree::recull); nothing is reloaded and no metadata is computed again, and the view
 // converges to the in-core image under the new culling.
 TEST(OutOfCore, TransferFunctionAndLabelChangesReCullWithoutLoadsOrNewMetadata) {
@@ -247,7 +247,7 @@ TEST(OutOfCore, FailedBricksAreReportedOnceAndRenderedAsMissing) {
   const Frame f = converge(r, OutOfCoreScene{&tf, nullptr, default_camera(d.volume->desc().extent())}, s);
   const std::string err = testing::internal::GetCapturedStderr();
   EXPECT_GT(r.failed_bricks(), 0u);
-  // Each failing chunk appears exactly once, however many bricks it covers (issue 15).
+  // Each failing chunk appears exactly once, however many bricks it covers.
   const auto count = [&err](const std::string& needle) {
     std::size_t n = 0;
     for (std::size_t pos = 0; (pos = err.find(needle, pos)) != std::string::npos; ++pos) ++n;

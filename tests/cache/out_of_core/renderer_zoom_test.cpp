@@ -1,4 +1,4 @@
-// Conservative culling at every level (issue 14, DESIGN.md §4 "metadata is a min/max pyramid"): a
+// Conservative culling at every level (DESIGN.md "Virtual memory": "metadata is a min/max pyramid"): a
 // far view of thin structures culls from coarse levels, whose means of a 1-voxel tube are dim; the
 // same renderer zoomed in must still find every tube, converging to the in-core image of the close
 // view. Before the bounds pyramid, coarse blocks were culled EMPTY from the means and stayed EMPTY.
