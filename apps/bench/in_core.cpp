@@ -24,24 +24,16 @@ struct FrameRecord {
 };
 
 // The CSV: a row per method and frame.
-constexpr Column<FrameRecord> kInCoreFrameColumns[] = {
+using FrameColumn = Column<FrameRecord>;
+constexpr FrameColumn kInCoreFrameColumns[] = {
     {"method", [](const auto& r) -> Cell { return r.method; }},
     {"frame", [](const auto& r) -> Cell { return r.frame; }},
     {"rasterization", [](const auto& r) -> Cell { return r.rasterization ? 1 : 0; }},
-    {"total_ms", [](const auto& r) -> Cell { return r.stats.time_ms.total; }},
-    {"metadata_ms", [](const auto& r) -> Cell { return r.stats.time_ms.metadata; }},
-    {"tree_ms", [](const auto& r) -> Cell { return r.stats.time_ms.tree; }},
-    {"geometry_ms", [](const auto& r) -> Cell { return r.stats.time_ms.geometry; }},
-    {"order_ms", [](const auto& r) -> Cell { return r.stats.time_ms.order; }},
-    {"lists_ms", [](const auto& r) -> Cell { return r.stats.time_ms.lists; }},
-    {"raycast_ms", [](const auto& r) -> Cell { return r.stats.time_ms.raycast; }},
-    {"samples", [](const auto& r) -> Cell { return r.stats.samples; }},
-    {"useful_samples", [](const auto& r) -> Cell { return r.stats.useful_samples; }},
-    {"depth_complexity_avg", [](const auto& r) -> Cell { return r.stats.depth_complexity_avg; }},
-    {"depth_complexity_max", [](const auto& r) -> Cell { return std::uint64_t(r.stats.depth_complexity_max); }},
-    {"boxes", [](const auto& r) -> Cell { return r.stats.boxes; }},
-    {"events", [](const auto& r) -> Cell { return r.stats.events; }},
-    {"occupancy_misses", [](const auto& r) -> Cell { return r.stats.occupancy_misses; }},
+    FrameColumn::stat("total_ms"), FrameColumn::stat("metadata_ms"), FrameColumn::stat("tree_ms"),
+    FrameColumn::stat("geometry_ms"), FrameColumn::stat("order_ms"), FrameColumn::stat("lists_ms"),
+    FrameColumn::stat("raycast_ms"), FrameColumn::stat("samples"), FrameColumn::stat("useful_samples"),
+    FrameColumn::stat("depth_complexity_avg"), FrameColumn::stat("depth_complexity_max"), FrameColumn::stat("boxes"),
+    FrameColumn::stat("events"), FrameColumn::stat("occupancy_misses"),
 };
 
 // A method's figures over the path. Times and depth complexity of the rasterization frames;
@@ -56,18 +48,19 @@ struct Summary {
 };
 
 // The JSON: an object per method.
-constexpr Column<Summary> kInCoreSummaryFields[] = {
-    {"median_ms", [](const auto& s) -> Cell { return s.median_ms; }},
-    {"p95_ms", [](const auto& s) -> Cell { return s.p95_ms; }},
-    {"median_ms_without_rasterization", [](const auto& s) -> Cell { return s.median_norast_ms; }},
-    {"median_raycast_ms", [](const auto& s) -> Cell { return s.median_raycast_ms; }},
-    {"median_lists_ms", [](const auto& s) -> Cell { return s.median_lists_ms; }},
-    {"speedup_vs_none", [](const auto& s) -> Cell { return s.speedup; }},
-    {"samples", [](const auto& s) -> Cell { return s.samples; }},
-    {"useful_samples", [](const auto& s) -> Cell { return s.useful; }},
-    {"sample_efficiency", [](const auto& s) -> Cell { return s.efficiency; }},
-    {"occupancy_misses", [](const auto& s) -> Cell { return s.misses; }},
-    {"depth_complexity_avg", [](const auto& s) -> Cell { return s.dc_avg; }},
+using SummaryField = Column<Summary>;
+constexpr SummaryField kInCoreSummaryFields[] = {
+    SummaryField::field<&Summary::median_ms>("median_ms"),
+    SummaryField::field<&Summary::p95_ms>("p95_ms"),
+    SummaryField::field<&Summary::median_norast_ms>("median_ms_without_rasterization"),
+    SummaryField::field<&Summary::median_raycast_ms>("median_raycast_ms"),
+    SummaryField::field<&Summary::median_lists_ms>("median_lists_ms"),
+    SummaryField::field<&Summary::speedup>("speedup_vs_none"),
+    SummaryField::field<&Summary::samples>("samples"),
+    SummaryField::field<&Summary::useful>("useful_samples"),
+    SummaryField::field<&Summary::efficiency>("sample_efficiency"),
+    SummaryField::field<&Summary::misses>("occupancy_misses"),
+    SummaryField::field<&Summary::dc_avg>("depth_complexity_avg"),
     {"depth_complexity_max", [](const auto& s) -> Cell { return std::uint64_t(s.dc_max); }},
 };
 

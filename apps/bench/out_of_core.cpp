@@ -16,13 +16,6 @@ namespace sl::app {
 
 namespace {
 
-// Cache hit rate per frame: distinct bricks the rays used that were resident, over those plus the
-// distinct bricks they missed.
-double hit_rate(const Stats& st) {
-  const double all = double(st.cache.hits) + double(st.cache.misses);
-  return all > 0.0 ? double(st.cache.hits) / all : 1.0;
-}
-
 // A frame of a view.
 struct OutOfCoreFrame {
   const char* method;
@@ -33,33 +26,21 @@ struct OutOfCoreFrame {
 
 // The CSV: a row per method, view and frame. The columns marked per_view are also in
 // the view's JSON entry, with the values of the view's last frame.
-constexpr Column<OutOfCoreFrame> kOutOfCoreFrameColumns[] = {
+using FrameColumn = Column<OutOfCoreFrame>;
+constexpr bool kPerView = true;
+constexpr FrameColumn kOutOfCoreFrameColumns[] = {
     {"method", [](const auto& f) -> Cell { return f.method; }},
     {"view", [](const auto& f) -> Cell { return f.view; }},
     {"frame", [](const auto& f) -> Cell { return f.frame; }},
-    {"total_ms", [](const auto& f) -> Cell { return f.stats.time_ms.total; }},
-    {"raycast_ms", [](const auto& f) -> Cell { return f.stats.time_ms.raycast; }},
-    {"lists_ms", [](const auto& f) -> Cell { return f.stats.time_ms.lists; }},
-    {"loads", [](const auto& f) -> Cell { return f.stats.cache.loads; }},
-    {"hits", [](const auto& f) -> Cell { return f.stats.cache.hits; }},
-    {"misses", [](const auto& f) -> Cell { return f.stats.cache.misses; }},
-    {"hit_rate", [](const auto& f) -> Cell { return hit_rate(f.stats); }},
-    {"pending", [](const auto& f) -> Cell { return f.stats.cache.pending; }},
-    {"resident_mb", [](const auto& f) -> Cell { return f.stats.cache.resident_mb; }, true},
-    {"tree_nodes", [](const auto& f) -> Cell { return f.stats.tree_nodes; }, true},
-    {"tree_bytes", [](const auto& f) -> Cell { return f.stats.tree_bytes; }, true},
-    {"page_table_bytes", [](const auto& f) -> Cell { return f.stats.cache.page_table_bytes; }, true},
-    {"samples", [](const auto& f) -> Cell { return f.stats.samples; }, true},
-    {"completeness", [](const auto& f) -> Cell { return f.stats.cache.completeness; }, true},
-    {"lod_coarsened", [](const auto& f) -> Cell { return f.stats.cache.lod_coarsened; }, true},
-    {"bricks_missing", [](const auto& f) -> Cell { return f.stats.cache.bricks_missing; }, true},
-    {"failed", [](const auto& f) -> Cell { return f.stats.cache.failed; }, true},
-    {"bricks_retried", [](const auto& f) -> Cell { return f.stats.cache.bricks_retried; }, true},
-    {"retries", [](const auto& f) -> Cell { return f.stats.cache.retries; }, true},
-    {"recovered", [](const auto& f) -> Cell { return f.stats.cache.recovered; }, true},
-    {"prefetched", [](const auto& f) -> Cell { return f.stats.cache.prefetched; }},
-    {"prefetch_hits", [](const auto& f) -> Cell { return f.stats.cache.prefetch_hits; }},
-    {"stall", [](const auto& f) -> Cell { return f.stats.cache.stall ? 1 : 0; }},
+    FrameColumn::stat("total_ms"), FrameColumn::stat("raycast_ms"), FrameColumn::stat("lists_ms"),
+    FrameColumn::stat("loads"), FrameColumn::stat("hits"), FrameColumn::stat("misses"), FrameColumn::stat("hit_rate"),
+    FrameColumn::stat("pending"), FrameColumn::stat("resident_mb", kPerView), FrameColumn::stat("tree_nodes", kPerView),
+    FrameColumn::stat("tree_bytes", kPerView), FrameColumn::stat("page_table_bytes", kPerView),
+    FrameColumn::stat("samples", kPerView), FrameColumn::stat("completeness", kPerView),
+    FrameColumn::stat("lod_coarsened", kPerView), FrameColumn::stat("bricks_missing", kPerView),
+    FrameColumn::stat("failed", kPerView), FrameColumn::stat("bricks_retried", kPerView),
+    FrameColumn::stat("retries", kPerView), FrameColumn::stat("recovered", kPerView),
+    FrameColumn::stat("prefetched"), FrameColumn::stat("prefetch_hits"), FrameColumn::stat("stall"),
 };
 
 // A view rendered until it converged (nothing left to load or resolve), or cut by
@@ -75,15 +56,16 @@ struct ViewResult {
 };
 
 // The view's JSON entry, beside the per_view columns of its last frame.
-constexpr Column<ViewResult> kViewFields[] = {
+using ViewField = Column<ViewResult>;
+constexpr ViewField kViewFields[] = {
     {"frames_to_converge", [](const auto& v) -> Cell { return v.converged ? v.frames : -1; }},
     {"ms_to_converge", [](const auto& v) -> Cell { return v.converged ? v.ms : -1.0; }},
-    {"converged_frame_ms", [](const auto& v) -> Cell { return v.last_ms; }},
-    {"loads", [](const auto& v) -> Cell { return v.loads; }},
-    {"stall_frames", [](const auto& v) -> Cell { return v.stalls; }},
-    {"prefetched", [](const auto& v) -> Cell { return v.prefetched; }},
-    {"prefetch_hits", [](const auto& v) -> Cell { return v.prefetch_hits; }},
-    {"first_frame_hit_rate", [](const auto& v) -> Cell { return v.first_hit_rate; }},
+    ViewField::field<&ViewResult::last_ms>("converged_frame_ms"),
+    ViewField::field<&ViewResult::loads>("loads"),
+    ViewField::field<&ViewResult::stalls>("stall_frames"),
+    ViewField::field<&ViewResult::prefetched>("prefetched"),
+    ViewField::field<&ViewResult::prefetch_hits>("prefetch_hits"),
+    ViewField::field<&ViewResult::first_hit_rate>("first_frame_hit_rate"),
 };
 
 // One method's pass over the path, with a fresh cache.
@@ -112,18 +94,19 @@ struct MethodRun {
 };
 
 // The JSON: an object per method (with the RSS samples and the views beside these).
-constexpr Column<MethodRun> kOutOfCoreMethodFields[] = {
+using MethodField = Column<MethodRun>;
+constexpr MethodField kOutOfCoreMethodFields[] = {
     {"median_converged_frame_ms", [](const auto& m) -> Cell { return percentile(m.conv_ms, 0.5); }},
     {"median_ms_to_converge", [](const auto& m) -> Cell { return percentile(m.to_conv_ms, 0.5); }},
     {"total_ms_to_converge", [](const auto& m) -> Cell { return m.total_to_converge_ms(); }},
-    {"frames", [](const auto& m) -> Cell { return m.frames; }},
-    {"views_rendered", [](const auto& m) -> Cell { return m.views_done; }},
+    MethodField::field<&MethodRun::frames>("frames"),
+    MethodField::field<&MethodRun::views_done>("views_rendered"),
     {"loads_per_frame", [](const auto& m) -> Cell { return m.loads_per_frame(); }},
-    {"unconverged_views", [](const auto& m) -> Cell { return m.unconverged; }},
-    {"stall_frames", [](const auto& m) -> Cell { return m.stall_frames; }},
-    {"longest_stall_frames", [](const auto& m) -> Cell { return m.longest_stall; }},
-    {"prefetched", [](const auto& m) -> Cell { return m.prefetched; }},
-    {"prefetch_hits", [](const auto& m) -> Cell { return m.prefetch_hits; }},
+    MethodField::field<&MethodRun::unconverged>("unconverged_views"),
+    MethodField::field<&MethodRun::stall_frames>("stall_frames"),
+    MethodField::field<&MethodRun::longest_stall>("longest_stall_frames"),
+    MethodField::field<&MethodRun::prefetched>("prefetched"),
+    MethodField::field<&MethodRun::prefetch_hits>("prefetch_hits"),
     {"page_table_bytes", [](const auto& m) -> Cell { return m.last.stats.cache.page_table_bytes; }},
     {"tree_bytes", [](const auto& m) -> Cell { return m.last.stats.tree_bytes; }},
     {"metadata_blocks", [](const auto& m) -> Cell { return m.last.stats.metadata_blocks; }},

@@ -51,7 +51,9 @@ FaultRun render_with_faults(const GeneratedVolume& g, const FaultSpec& spec, con
     r.wait_for_loads();
   }
   // A converged frame waited for nothing, so nothing failed after it.
-  if (run.converged) EXPECT_EQ(run.frame.stats.cache.failed, r.failed_bricks());
+  if (run.converged) {
+    EXPECT_EQ(run.frame.stats.cache.failed, r.failed_bricks());
+  }
   run.err = testing::internal::GetCapturedStderr();
   for (int level = 0; level < run.layout.levels; ++level) {
     const ivec3 n = run.layout.bricks(level);
