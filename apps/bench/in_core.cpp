@@ -12,6 +12,21 @@
 
 namespace sl::app {
 
+// A method's figures over the path, named as the keys of its JSON object. Times and depth complexity
+// of the rasterization frames; `median_ms_without_rasterization` of the frames that reused their lists.
+struct InCoreSummary {
+  double median_ms = 0, p95_ms = 0, median_ms_without_rasterization = 0, median_raycast_ms = 0, median_lists_ms = 0;
+  double speedup_vs_none = 0;  // over the median of method none (0 without it)
+  std::uint64_t samples = 0, useful_samples = 0, occupancy_misses = 0;
+  double sample_efficiency = 0;  // useful samples over samples
+  double depth_complexity_avg = 0;
+  std::uint32_t depth_complexity_max = 0;
+};
+// The JSON: an object per method (outside the anonymous namespace: its from_json is unused).
+NLOHMANN_DEFINE_TYPE_NON_INTRUSIVE(InCoreSummary, median_ms, p95_ms, median_ms_without_rasterization,
+                                   median_raycast_ms, median_lists_ms, speedup_vs_none, samples, useful_samples,
+                                   sample_efficiency, occupancy_misses, depth_complexity_avg, depth_complexity_max)
+
 namespace {
 
 // A frame of the path, rendered with its lists rebuilt (rasterization) or reused (only the
@@ -34,34 +49,6 @@ constexpr FrameColumn kInCoreFrameColumns[] = {
     FrameColumn::stat("raycast_ms"), FrameColumn::stat("samples"), FrameColumn::stat("useful_samples"),
     FrameColumn::stat("depth_complexity_avg"), FrameColumn::stat("depth_complexity_max"), FrameColumn::stat("boxes"),
     FrameColumn::stat("events"), FrameColumn::stat("occupancy_misses"),
-};
-
-// A method's figures over the path. Times and depth complexity of the rasterization frames;
-// `median_norast_ms` of the frames that reused their lists.
-struct Summary {
-  double median_ms = 0, p95_ms = 0, median_norast_ms = 0, median_raycast_ms = 0, median_lists_ms = 0;
-  std::uint64_t samples = 0, useful = 0, misses = 0;
-  double dc_avg = 0;
-  std::uint32_t dc_max = 0;
-  double speedup = 0;     // over the median of method none (0 without it)
-  double efficiency = 0;  // useful samples over samples
-};
-
-// The JSON: an object per method.
-using SummaryField = Column<Summary>;
-constexpr SummaryField kInCoreSummaryFields[] = {
-    SummaryField::field<&Summary::median_ms>("median_ms"),
-    SummaryField::field<&Summary::p95_ms>("p95_ms"),
-    SummaryField::field<&Summary::median_norast_ms>("median_ms_without_rasterization"),
-    SummaryField::field<&Summary::median_raycast_ms>("median_raycast_ms"),
-    SummaryField::field<&Summary::median_lists_ms>("median_lists_ms"),
-    SummaryField::field<&Summary::speedup>("speedup_vs_none"),
-    SummaryField::field<&Summary::samples>("samples"),
-    SummaryField::field<&Summary::useful>("useful_samples"),
-    SummaryField::field<&Summary::efficiency>("sample_efficiency"),
-    SummaryField::field<&Summary::misses>("occupancy_misses"),
-    SummaryField::field<&Summary::dc_avg>("depth_complexity_avg"),
-    {"depth_complexity_max", [](const auto& s) -> Cell { return std::uint64_t(s.dc_max); }},
 };
 
 // Per method a fresh renderer replays the path; every view is rendered twice, once with its
@@ -90,8 +77,8 @@ std::vector<std::vector<FrameRecord>> render_in_core(BenchRun& b, std::unique_pt
   return records;
 }
 
-Summary summarize(const std::vector<FrameRecord>& recs) {
-  Summary s;
+InCoreSummary summarize(const std::vector<FrameRecord>& recs) {
+  InCoreSummary s;
   std::vector<double> total, norast, raycast, lists;
   double dc = 0;
   int n = 0;
@@ -104,24 +91,24 @@ Summary summarize(const std::vector<FrameRecord>& recs) {
     raycast.push_back(r.stats.time_ms.raycast);
     lists.push_back(r.stats.time_ms.lists + r.stats.time_ms.order);
     s.samples += r.stats.samples;
-    s.useful += r.stats.useful_samples;
-    s.misses += r.stats.occupancy_misses;
+    s.useful_samples += r.stats.useful_samples;
+    s.occupancy_misses += r.stats.occupancy_misses;
     dc += r.stats.depth_complexity_avg;
-    s.dc_max = std::max(s.dc_max, r.stats.depth_complexity_max);
+    s.depth_complexity_max = std::max(s.depth_complexity_max, r.stats.depth_complexity_max);
     ++n;
   }
   s.median_ms = percentile(total, 0.5);
   s.p95_ms = percentile(total, 0.95);
-  s.median_norast_ms = percentile(norast, 0.5);
+  s.median_ms_without_rasterization = percentile(norast, 0.5);
   s.median_raycast_ms = percentile(raycast, 0.5);
   s.median_lists_ms = percentile(lists, 0.5);
-  s.dc_avg = n ? dc / n : 0.0;
-  s.efficiency = s.samples ? double(s.useful) / double(s.samples) : 0.0;
+  s.depth_complexity_avg = n ? dc / n : 0.0;
+  s.sample_efficiency = s.samples ? double(s.useful_samples) / double(s.samples) : 0.0;
   return s;
 }
 
 // The median of method none (0 when it was not run); speed-ups are relative to it.
-double none_median_ms(const BenchRun& b, const std::vector<Summary>& sums) {
+double none_median_ms(const BenchRun& b, const std::vector<InCoreSummary>& sums) {
   double none_median = 0;
   for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
     if (b.methods[mi] == SkipMethod::None) none_median = sums[mi].median_ms;
@@ -129,15 +116,16 @@ double none_median_ms(const BenchRun& b, const std::vector<Summary>& sums) {
   return none_median;
 }
 
-void print_summary_table(const BenchRun& b, const std::vector<Summary>& sums, double none_median) {
+void print_summary_table(const BenchRun& b, const std::vector<InCoreSummary>& sums, double none_median) {
   std::printf("%-11s %10s %10s %12s %9s %13s %11s %10s %8s %6s\n", "method", "median ms", "p95 ms", "w/o rast ms",
               "speed-up", "samples/frame", "efficiency", "lists ms", "dc avg", "dc max");
   for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
-    const Summary& s = sums[mi];
+    const InCoreSummary& s = sums[mi];
     std::printf("%-11s %10.1f %10.1f %12.1f %9s %13.3g %10.2f%% %10.1f %8.2f %6u\n", to_string(b.methods[mi]),
-                s.median_ms, s.p95_ms, s.median_norast_ms,
-                none_median > 0 ? (std::to_string(s.speedup).substr(0, 5) + "x").c_str() : "-",
-                double(s.samples) / b.path.frames, 100.0 * s.efficiency, s.median_lists_ms, s.dc_avg, s.dc_max);
+                s.median_ms, s.p95_ms, s.median_ms_without_rasterization,
+                none_median > 0 ? (std::to_string(s.speedup_vs_none).substr(0, 5) + "x").c_str() : "-",
+                double(s.samples) / b.path.frames, 100.0 * s.sample_efficiency, s.median_lists_ms,
+                s.depth_complexity_avg, s.depth_complexity_max);
   }
 }
 
@@ -148,10 +136,12 @@ int bench_in_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
               to_string(b.rs.mode), b.path.frames, b.methods.size(),
               b.scene.enabled ? (", " + std::to_string(b.scene.enabled->count()) + " labels enabled").c_str() : "");
   const std::vector<std::vector<FrameRecord>> records = render_in_core(b, std::move(first));
-  std::vector<Summary> sums;
+  std::vector<InCoreSummary> sums;
   for (const auto& r : records) sums.push_back(summarize(r));
   const double none_median = none_median_ms(b, sums);
-  for (Summary& s : sums) s.speedup = none_median > 0 && s.median_ms > 0 ? none_median / s.median_ms : 0.0;
+  for (InCoreSummary& s : sums) {
+    s.speedup_vs_none = none_median > 0 && s.median_ms > 0 ? none_median / s.median_ms : 0.0;
+  }
   print_summary_table(b, sums, none_median);
   nlohmann::json js;
   js["volume"] = b.scene.name;
@@ -161,7 +151,7 @@ int bench_in_core(BenchRun& b, std::unique_ptr<SceneRenderer> first) {
   js["frames"] = b.path.frames;
   for (std::size_t mi = 0; mi < b.methods.size(); ++mi) {
     nlohmann::json method = nlohmann::json::object();
-    add_json_fields(method, kInCoreSummaryFields, sums[mi]);
+    method.update(nlohmann::json(sums[mi]));
     js["methods"][to_string(b.methods[mi])] = std::move(method);
   }
   std::ostringstream csv;
