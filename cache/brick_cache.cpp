@@ -19,7 +19,12 @@ BrickCache::BrickCache(const BrickLayout& layout, VoxelType voxel_type, std::opt
   const std::size_t n = layout.stored_voxels();
   voxel_stride_ = round_up(n * std::size_t(voxel_size(voxel_type)), 64);
   label_stride_ = label_type ? round_up(n * std::size_t(voxel_size(*label_type)), 64) : 0;
-  const std::size_t per_slot = voxel_stride_ + label_stride_;
+  // The voxel mask: u8/u16 volumes (core/occupancy/fine_occupancy.h), a bit per stored voxel's cell.
+  if (voxel_type == VoxelType::U8 || voxel_type == VoxelType::U16) {
+    const std::size_t s = std::size_t(layout.stored_size());
+    mask_words_ = round_up((s * s * s + 63) / 64, 8);  // whole 64-byte lines per slot
+  }
+  const std::size_t per_slot = voxel_stride_ + label_stride_ + mask_words_ * sizeof(std::uint64_t);
   const std::uint64_t budget = std::uint64_t(budget_mb) << 20;
   // Slots are addressed by 30-bit page-table payloads.
   const std::uint64_t slots = std::min<std::uint64_t>(budget / per_slot, std::uint64_t(PageEntry::kPayloadMask) + 1);
@@ -36,6 +41,9 @@ BrickCache::BrickCache(const BrickLayout& layout, VoxelType voxel_type, std::opt
   // for_overwrite: no zeroing pass, so untouched slots never become resident memory.
   voxels_ = std::make_unique_for_overwrite<std::byte[]>(std::size_t(slots) * voxel_stride_);
   if (label_stride_) labels_ = std::make_unique_for_overwrite<std::byte[]>(std::size_t(slots) * label_stride_);
+  if (mask_words_) masks_ = std::make_unique_for_overwrite<std::uint64_t[]>(std::size_t(slots) * mask_words_);
+  mask_key_.assign(slot_count_, kNoMask);
+  if (mask_words_) cells_.assign(std::size_t(slot_count_) * BrickCacheView::kCellWords, 0u);
   usage_.assign(slot_count_, 0u);
   owner_.assign(slot_count_, BrickId::invalid());
   free_.resize(slot_count_);
@@ -83,6 +91,7 @@ std::optional<BrickCache::Allocation> BrickCache::allocate(BrickId id, std::uint
     ++evictions_;
   }
   owner_[a.slot] = id;
+  mask_key_[a.slot] = kNoMask;
   std::atomic_ref<std::uint32_t>(usage_[a.slot]).store(frame, std::memory_order_relaxed);
   return a;
 }
@@ -90,6 +99,7 @@ std::optional<BrickCache::Allocation> BrickCache::allocate(BrickId id, std::uint
 void BrickCache::release(std::uint32_t slot) {
   SL_CHECK(slot < slot_count_ && owner_[slot].valid());
   owner_[slot] = BrickId::invalid();
+  mask_key_[slot] = kNoMask;
   std::atomic_ref<std::uint32_t>(usage_[slot]).store(0u, std::memory_order_relaxed);
   free_.push_back(slot);
 }
@@ -107,6 +117,12 @@ std::span<std::byte> BrickCache::slot_labels(std::uint32_t slot) {
           std::size_t(layout_.stored_voxels()) * std::size_t(voxel_size(label_type_))};
 }
 
+std::span<std::uint64_t> BrickCache::slot_mask(std::uint32_t slot) {
+  SL_CHECK(slot < slot_count_);
+  if (!mask_words_) return {};
+  return {masks_.get() + std::size_t(slot) * mask_words_, mask_words_};
+}
+
 BrickCacheView BrickCache::view() {
   BrickCacheView v;
   v.voxels = voxels_.get();
@@ -119,6 +135,9 @@ BrickCacheView BrickCache::view() {
   v.voxel_type = voxel_type_;
   v.label_type = label_type_;
   v.has_labels = label_stride_ ? 1 : 0;
+  v.masks = masks_.get();
+  v.mask_words = std::uint32_t(mask_words_);
+  v.cells = mask_words_ ? cells_.data() : nullptr;
   return v;
 }
 

@@ -1,5 +1,5 @@
 // Brick cache (DESIGN.md "Virtual memory"): a fixed pool of slots, each one (B + 2)³ brick of the voxel
-// type (plus its labels when the volume has them), held in two contiguous slabs on the CPU (a 3D atlas
+// type (plus its labels when the volume has them, and for u8/u16 a voxel mask of its cells), held in two contiguous slabs on the CPU (a 3D atlas
 // on CUDA). Sized once from a memory budget (--cache-mb). Replacement is LRU over per-slot usage stamps
 // — the frame number in which the ray caster last sampled the slot (paper §8.3: usage reporting drives
 // both the cache and the occupancy tree's retirement).
@@ -62,6 +62,17 @@ struct SlotSampler {
     return std::uint32_t(data[(std::int64_t(v.z) * stored + v.y) * stored + v.x]);
   }
 
+  // The bit of the slot's voxel mask (BrickCacheView::masks) for the trilinear cell sample(p) blends:
+  // the same local anchor, so a clear bit means sample(p) cannot contribute (DESIGN.md "Ray casting").
+  // The mask holds a bit per stored voxel, packed x fastest.
+  SL_HOST_DEVICE bool mask_visible(const vec3& p, const std::uint64_t* mask) const {
+    vec3 u = p * inv_spacing - 0.5f;
+    u = glm::clamp(u, vec3(0.0f), vec3(dims - 1));
+    const int lx = clampi(int(u.x) - first.x), ly = clampi(int(u.y) - first.y), lz = clampi(int(u.z) - first.z);
+    const std::uint64_t bit = std::uint64_t((std::int64_t(lz) * stored + ly) * stored + lx);
+    return ((mask[bit >> 6] >> (bit & 63u)) & 1u) != 0u;
+  }
+
  private:
   SL_HOST_DEVICE int clampi(int i) const { return i < 0 ? 0 : (i > stored - 2 ? stored - 2 : i); }
 };
@@ -79,6 +90,20 @@ struct BrickCacheView {
   VoxelType label_type = VoxelType::U32;
   std::uint8_t has_labels = 0;
   std::uint8_t pad_[5] = {};
+  // Per slot, the voxel mask of its stored voxels under the frame's culling inputs (a bit per trilinear
+  // cell, packed x fastest; core/occupancy/fine_occupancy.h): the caster leaves out the samples whose
+  // bit is clear. Null: no masks (other modes or filters, other voxel types, devices with their own
+  // memory).
+  const std::uint64_t* masks = nullptr;
+  std::uint32_t mask_words = 0;      // per slot
+  std::uint32_t pad_mask_ = 0;
+  // Per slot, kCellsPerAxis³ fine cells of (B / kCellsPerAxis)³ payload voxels in kCellWords words,
+  // bit (z * n + y) * n + x set when a sample within half a voxel of the cell can contribute: the OR of
+  // the mask bits of the trilinear cells such a sample may blend. The caster leaps over a clear cell
+  // without visiting its samples. With masks.
+  static constexpr int kCellsPerAxis = 8;
+  static constexpr int kCellWords = kCellsPerAxis * kCellsPerAxis * kCellsPerAxis / 64;
+  const std::uint64_t* cells = nullptr;
 
   // Reports that slot s was used in `frame`. Many caster threads do this at once with the same
   // frame value, so a relaxed store suffices; the load first avoids dirtying a shared cache line.
@@ -94,6 +119,9 @@ struct BrickCacheView {
   template <class T>
   SL_HOST_DEVICE const T* slot_voxels(std::uint32_t slot) const {
     return reinterpret_cast<const T*>(voxels + std::uint64_t(slot) * voxel_stride);
+  }
+  SL_HOST_DEVICE const std::uint64_t* slot_mask(std::uint32_t slot) const {
+    return masks ? masks + std::uint64_t(slot) * mask_words : nullptr;
   }
   template <class L>
   SL_HOST_DEVICE const L* slot_labels(std::uint32_t slot) const {
@@ -121,7 +149,7 @@ struct BrickCacheView {
     return s;
   }
 };
-static_assert(sizeof(BrickCacheView) == 56, "BrickCacheView is plain data");
+static_assert(sizeof(BrickCacheView) == 80, "BrickCacheView is plain data");
 
 class BrickCache {
  public:
@@ -147,7 +175,7 @@ class BrickCache {
 
   std::uint32_t slot_count() const { return slot_count_; }
   std::uint32_t resident_count() const { return slot_count_ - std::uint32_t(free_.size()); }
-  std::size_t slot_bytes() const { return voxel_stride_ + label_stride_; }
+  std::size_t slot_bytes() const { return voxel_stride_ + label_stride_ + mask_words_ * sizeof(std::uint64_t); }
   double resident_mb() const { return double(resident_count()) * double(slot_bytes()) / double(1 << 20); }
   std::uint64_t evictions() const { return evictions_; }
   BrickId brick_in(std::uint32_t slot) const { return owner_[slot]; }
@@ -156,6 +184,17 @@ class BrickCache {
 
   std::span<std::byte> slot_voxels(std::uint32_t slot);
   std::span<std::byte> slot_labels(std::uint32_t slot);  // empty without labels
+  // The slot's voxel mask words (empty where masks_supported() is false) and the culling key it was
+  // built for (kNoMask: none, e.g. the slot was just refilled).
+  static constexpr std::uint64_t kNoMask = 0;
+  bool masks_supported() const { return mask_words_ != 0; }
+  std::span<std::uint64_t> slot_mask(std::uint32_t slot);
+  // The slot's fine cells, derived from its mask (BrickCacheView::cells).
+  std::span<std::uint64_t> slot_cells(std::uint32_t slot) {
+    return {cells_.data() + std::size_t(slot) * BrickCacheView::kCellWords, BrickCacheView::kCellWords};
+  }
+  std::uint64_t mask_key(std::uint32_t slot) const { return mask_key_[slot]; }
+  void set_mask_key(std::uint32_t slot, std::uint64_t key) { mask_key_[slot] = key; }
 
   BrickCacheView view();
 
@@ -166,6 +205,10 @@ class BrickCache {
   std::size_t voxel_stride_ = 0, label_stride_ = 0;
   std::uint32_t slot_count_ = 0;
   std::unique_ptr<std::byte[]> voxels_, labels_;
+  std::size_t mask_words_ = 0;  // per slot (0: no masks)
+  std::unique_ptr<std::uint64_t[]> masks_;
+  std::vector<std::uint64_t> mask_key_;
+  std::vector<std::uint64_t> cells_;
   std::vector<std::uint32_t> usage_;  // written by casters through the view (atomic_ref)
   std::vector<BrickId> owner_;
   std::vector<std::uint32_t> free_;   // free slots, taken from the back (lowest first)

@@ -25,14 +25,16 @@ namespace sl {
 // rarely share a cache line (the stripe follows the caller's stack address). Plain data.
 struct SampleShortfall {
   static constexpr std::uint32_t kStripes = 16;
-  static constexpr std::uint32_t kStride = 8;  // 64-byte lines: [0] incomplete, [1] coarsened
+  // 64-byte lines: [0] incomplete, [1] coarsened, [2] left out (samples a voxel mask or a clear fine
+  // cell passed over: they count among the frame's samples for completeness, not as taken)
+  static constexpr std::uint32_t kStride = 8;
   static constexpr std::uint32_t kWords = kStripes * kStride;
   std::uint64_t* counters = nullptr;           // kStripes * kStride words, zeroed before the cast
   LodParams footprint;                         // the frame's level of detail without pressure
   vec3 eye{0.0f};                              // ray origin of a perspective view (t = distance)
   bool pressured = false;                      // the cast's level of detail is coarser than footprint
 
-  SL_HOST_DEVICE void count(const vec3& p, int level, bool complete) const {
+  SL_HOST_DEVICE SL_INLINE void count(const vec3& p, int level, bool complete) const {
     if (!complete) add(0);
     if (pressured && level > 0 && finer_by_footprint(p, level)) add(1);
   }
@@ -46,16 +48,20 @@ struct SampleShortfall {
     return glm::dot(d, d) * r * r < lim * lim;
   }
 
+  SL_HOST_DEVICE void count_left_out(std::uint64_t n) const {
+    if (counters != nullptr && n != 0) add(2, n);
+  }
+
  private:
-  SL_HOST_DEVICE void add(int which) const {
+  SL_HOST_DEVICE void add(int which, std::uint64_t n = 1) const {
     // Threads' stacks lie whole megabytes apart: hash the page number so they land on different lines.
     const std::uint64_t page = std::uint64_t(reinterpret_cast<std::uintptr_t>(&which)) >> 12;
     const std::uint32_t stripe = std::uint32_t((page * 0x9E3779B97F4A7C15ull) >> 60) % kStripes;
     std::uint64_t* w = counters + stripe * kStride + std::uint32_t(which);
 #if defined(__CUDA_ARCH__)
-    atomicAdd(reinterpret_cast<unsigned long long*>(w), 1ull);
+    atomicAdd(reinterpret_cast<unsigned long long*>(w), static_cast<unsigned long long>(n));
 #else
-    std::atomic_ref<std::uint64_t>(*w).fetch_add(1u, std::memory_order_relaxed);
+    std::atomic_ref<std::uint64_t>(*w).fetch_add(n, std::memory_order_relaxed);
 #endif
   }
 };
@@ -87,6 +93,8 @@ struct VirtualSampler {
     BrickId id;                   // the brick serving it (the wanted one or a resident ancestor)
     PageEntry entry;
     SlotSampler<T> voxels;        // valid when entry is resident
+    const std::uint64_t* mask = nullptr;  // the slot's voxel mask, when resident and the frame has masks
+    std::uint32_t left_out = 0;   // samples sample_unless_clear passed over (count_left_out adds them)
     bool complete = false;        // the serving brick is the wanted one (not a fallback)
     bool labels_ready = false;
     SlotSampler<L> labels;        // built on first use
@@ -127,6 +135,9 @@ struct VirtualSampler {
     if (e.is_resident()) {
       cache.touch(e.slot(), frame);
       cur.voxels = cache.template sampler<T>(e.slot(), *layout, id);
+      cur.mask = cache.slot_mask(e.slot());
+    } else {
+      cur.mask = nullptr;
     }
     return cur;
   }
@@ -140,6 +151,58 @@ struct VirtualSampler {
   }
 
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext& c) const { return value(serve(p, c), p); }
+
+  // The fine cell (BrickCacheView::cells) of the wanted brick holding p, when that brick is resident and
+  // nothing about the samples in it is counted short (no pressure): kClear or kOccupied, and the ray
+  // parameter where the ray leaves the cell; kUnknown otherwise (the caller samples one by one).
+  enum CellState { kUnknown, kClear, kOccupied };
+  SL_HOST_DEVICE SL_INLINE CellState fine_cell(const Ray& ray, const vec3& inv_dir, const vec3& p,
+                                              const SampleContext& c, float& t_exit) const {
+    if (cache.cells == nullptr || shortfall.pressured) return kUnknown;
+    const Cursor& k = locate(p, c);
+    if (!k.complete || k.mask == nullptr) return kUnknown;
+    constexpr int n = BrickCacheView::kCellsPerAxis;
+    const int e = layout->brick_size / n;
+    // Truncation for floor: a negative coordinate can only come from a point just outside the
+    // volume, and it clamps to the first cell either way.
+    const vec3 u = p * k.inv_spacing;
+    int cx = (int(u.x) - k.lo.x) / e, cy = (int(u.y) - k.lo.y) / e, cz = (int(u.z) - k.lo.z) / e;
+    cx = cx < 0 ? 0 : (cx >= n ? n - 1 : cx);
+    cy = cy < 0 ? 0 : (cy >= n ? n - 1 : cy);
+    cz = cz < 0 ? 0 : (cz >= n ? n - 1 : cz);
+    const std::uint32_t bit = std::uint32_t((cz * n + cy) * n + cx);
+    const bool occupied = ((cache.cells[std::uint64_t(k.entry.slot()) * BrickCacheView::kCellWords + (bit >> 6)] >>
+                            (bit & 63u)) & 1u) != 0u;
+    // The far planes of the cell's box (level voxel units times the level's spacing).
+    const vec3 h = layout->level_spacing(c.level);
+    t_exit = 3.402823466e+38f;
+    const int cell[3] = {cx, cy, cz};
+    for (int a = 0; a < 3; ++a) {
+      if (inv_dir[a] == 0.0f) continue;
+      const int plane = k.lo[a] + (inv_dir[a] > 0.0f ? cell[a] + 1 : cell[a]) * e;
+      const float t = (float(plane) * h[a] - ray.origin[a]) * inv_dir[a];
+      t_exit = t < t_exit ? t : t_exit;
+    }
+    return occupied ? kOccupied : kClear;
+  }
+
+  // Adds the samples this ray's cursor passed over, and `leapt` more, to the frame's left-out count.
+  SL_HOST_DEVICE void count_left_out(std::uint64_t leapt) const {
+    shortfall.count_left_out(leapt + cur.left_out);
+    cur.left_out = 0;
+  }
+
+  // sample(), unless the serving slot's voxel mask says the sample cannot contribute: then false, and
+  // nothing is fetched. The miss, usage and shortfall accounting are those of sample() either way.
+  SL_HOST_DEVICE SL_INLINE bool sample_unless_clear(const vec3& p, const SampleContext& c, float& v) const {
+    const Cursor& k = serve(p, c);
+    if (k.mask != nullptr && !k.voxels.mask_visible(p, k.mask)) {
+      ++cur.left_out;
+      return false;
+    }
+    v = value(k, p);
+    return true;
+  }
 
   SL_HOST_DEVICE SL_INLINE float value(const Cursor& k, const vec3& p) const {
     if (k.entry.is_resident()) return k.voxels.sample(p);

@@ -53,12 +53,15 @@ void OutOfCoreRenderer::count_loader(CacheStats& c) const {
 
 // Shares of the samples not served at their desired level, and coarsened by pressure.
 void OutOfCoreRenderer::count_completeness(Stats& st) const {
-  std::uint64_t incomplete = 0, coarsened = 0;
+  std::uint64_t incomplete = 0, coarsened = 0, left_out = 0;
   for (std::uint32_t k = 0; k < SampleShortfall::kStripes; ++k) {
     incomplete += shortfall_[k * SampleShortfall::kStride];
     coarsened += shortfall_[k * SampleShortfall::kStride + 1];
+    left_out += shortfall_[k * SampleShortfall::kStride + 2];
   }
-  const double samples = double(std::max<std::uint64_t>(st.samples, 1));
+  st.cache.samples_left_out = left_out;
+  // Shares of every sample of the frame, taken or left out.
+  const double samples = double(std::max<std::uint64_t>(st.samples + left_out, 1));
   st.cache.completeness = 1.0 - std::min(1.0, double(incomplete) / samples);
   st.cache.lod_coarsened = std::min(1.0, double(coarsened) / samples);
 }

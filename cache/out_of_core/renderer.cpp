@@ -89,6 +89,7 @@ void OutOfCoreRenderer::begin_culling(const OutOfCoreScene& scene, const RenderS
   cull.tf = scene.tf;
   cull.iso = s.iso;
   cull.enabled = scene.enabled;
+  cull_ = cull;
   if (occupancy_.begin_frame(frame_, cull)) residency_.forget_culled_empty_pages();
 }
 
@@ -140,7 +141,7 @@ void OutOfCoreRenderer::cast(const OutOfCoreScene& scene, const RenderSettings& 
   request.vbox = Box3{vec3(0.0f), d.extent()};
   request.skip = skip;
   request.frame = frame_;
-  request.host = residency_.host_view();
+  request.host = residency_.host_view(residency_.update_masks(cull_, occupancy_.cull_key(), s.filter == Filter::Linear));
   shortfall_.assign(SampleShortfall::kStripes * SampleShortfall::kStride, 0);
   request.host.shortfall.counters = shortfall_.data();
   request.host.shortfall.footprint = lod.footprint;

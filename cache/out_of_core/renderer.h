@@ -131,6 +131,7 @@ class OutOfCoreRenderer {
   std::vector<std::uint64_t> shortfall_;  // the frame's SampleShortfall counters (completeness)
   FramePipeline pipeline_;
   SampleClip clip_;
+  CullParams cull_;  // this frame's culling inputs (the voxel masks are built for them)
 };
 
 }  // namespace sl

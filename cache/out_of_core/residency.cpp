@@ -4,11 +4,52 @@
 #include <cstdio>
 #include <cstring>
 
+#include "core/occupancy/fine_occupancy.h"
+#include "core/util/parallel.h"
 #include "core/util/printable.h"
 
 namespace sl {
 
 namespace {
+
+// BrickCacheView::cells from a slot's mask. Fine cell c (per axis, payload voxels [cC, (c+1)C)) holds
+// the samples whose trilinear cell is anchored at payload voxels cC - 1 .. (c+1)C - 1 — within half a
+// voxel of the cell, rounding included — which are stored anchors cC .. (c+1)C. So a set mask bit at
+// stored anchor s marks cell s / C and, when s is a multiple of C, cell s / C - 1.
+void fine_cells_of_mask(const std::uint64_t* mask, int row_words, int brick, std::span<std::uint64_t> cells) {
+  constexpr int n = BrickCacheView::kCellsPerAxis;
+  const int c = brick / n;
+  const auto cells_of = [&](int s, int out[2]) {
+    int k = 0;
+    if (s / c < n) out[k++] = s / c;
+    if (s % c == 0 && s > 0) out[k++] = s / c - 1;
+    return k;
+  };
+  std::fill(cells.begin(), cells.end(), 0u);
+  const int stored = brick + 2;
+  for (int z = 0; z <= brick; ++z) {  // stored anchors 0 .. B are the payload's cells
+    int cz[2];
+    const int nz = cells_of(z, cz);
+    for (int y = 0; y <= brick; ++y) {
+      int cy[2];
+      const int ny = cells_of(y, cy);
+      const std::uint64_t* row = mask + (std::size_t(z) * std::size_t(stored) + std::size_t(y)) * std::size_t(row_words);
+      for (int x = 0; x <= brick; ++x) {
+        if (((row[x >> 6] >> (x & 63)) & 1u) == 0u) continue;
+        int cx[2];
+        const int nx = cells_of(x, cx);
+        for (int i = 0; i < nz; ++i) {
+          for (int j = 0; j < ny; ++j) {
+            for (int k = 0; k < nx; ++k) {
+              const int bit = (cz[i] * n + cy[j]) * n + cx[k];
+              cells[std::size_t(bit >> 6)] |= std::uint64_t(1) << (bit & 63);
+            }
+          }
+        }
+      }
+    }
+  }
+}
 
 // Sorts and de-duplicates the changed words' indices and reads each word's current value.
 template <class Index, class Read>
@@ -143,8 +184,61 @@ std::size_t Residency::free_slots_for_loads() const {
   return cache_.slot_count() > taken ? cache_.slot_count() - taken : 0;
 }
 
-VirtualMemoryView Residency::host_view() {
-  return VirtualMemoryView{&layout_, page_table_.view(), cache_.view(), misses_.view(), source_->has_labels(), {}};
+bool Residency::update_masks(const CullParams& cull, std::uint64_t key, bool linear) {
+  if (device_memory_ || !cache_.masks_supported() || !linear ||
+      (cull.mode != RenderMode::Dvr && cull.mode != RenderMode::Labels)) {
+    return false;
+  }
+  if (key == BrickCache::kNoMask) key = 1;
+  std::vector<std::uint32_t> stale;
+  for (std::uint32_t s = 0; s < cache_.slot_count(); ++s) {
+    if (cache_.brick_in(s).valid() && cache_.mask_key(s) != key) stale.push_back(s);
+  }
+  if (stale.empty()) return true;
+  const VoxelMaskBuilder builder(source_->desc().type, cull);
+  const bool labels = cull.enabled != nullptr && cache_.has_labels();
+  parallel_for(0, int(stale.size()), [&](int i) { build_mask(stale[std::size_t(i)], builder, labels); });
+  for (const std::uint32_t s : stale) cache_.set_mask_key(s, key);
+  return true;
+}
+
+// A slot's stored voxels as a small dense volume: its cells are the trilinear cells SlotSampler blends.
+void Residency::build_mask(std::uint32_t slot, const VoxelMaskBuilder& builder, bool labels) {
+  const int n = layout_.stored_size();
+  VolumeView vox;
+  vox.data = cache_.slot_voxels(slot).data();
+  vox.dims = ivec3(n);
+  vox.type = source_->desc().type;
+  VolumeView lab;
+  if (labels) {
+    lab.data = cache_.slot_labels(slot).data();
+    lab.dims = ivec3(n);
+    lab.type = source_->label_type();
+  }
+  // Built in rows of whole words (the builder's layout), then packed a bit per stored voxel.
+  const int row_words = (n + 63) / 64;
+  thread_local std::vector<std::uint64_t> rows;
+  rows.assign(std::size_t(n) * std::size_t(n) * std::size_t(row_words), 0u);
+  builder.build(vox, labels ? &lab : nullptr, row_words, rows.data(), /*parallel=*/false);
+  const std::span<std::uint64_t> bits = cache_.slot_mask(slot);
+  std::fill(bits.begin(), bits.end(), 0u);
+  std::size_t bit = 0;
+  for (std::size_t r = 0; r < std::size_t(n) * std::size_t(n); ++r) {
+    const std::uint64_t* row = rows.data() + r * std::size_t(row_words);
+    for (int x = 0; x < n; ++x, ++bit) {
+      if ((row[x >> 6] >> (x & 63)) & 1u) bits[bit >> 6] |= std::uint64_t(1) << (bit & 63u);
+    }
+  }
+  fine_cells_of_mask(rows.data(), row_words, layout_.brick_size, cache_.slot_cells(slot));
+}
+
+VirtualMemoryView Residency::host_view(bool masks) {
+  BrickCacheView cache = cache_.view();
+  if (!masks) {
+    cache.masks = nullptr;
+    cache.cells = nullptr;
+  }
+  return VirtualMemoryView{&layout_, page_table_.view(), cache, misses_.view(), source_->has_labels(), {}};
 }
 
 // With device memory: first the page-table words changed this frame (each once, with its current

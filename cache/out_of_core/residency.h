@@ -19,6 +19,7 @@
 #include "cache/out_of_core/settings.h"
 #include "cache/page_table.h"
 #include "cache/volume_source.h"
+#include "core/occupancy/culling.h"
 
 namespace sl {
 
@@ -62,8 +63,15 @@ class Residency {
   std::size_t slots_used_last() const { return slots_used_last_; }
   void set_slots_used_last(std::size_t n) { slots_used_last_ = n; }
 
-  // What a caster sharing host memory reads: the host's own tables.
-  VirtualMemoryView host_view();
+  // Brings every resident slot's voxel mask up to date with the culling inputs `cull` (key: their
+  // cull_key): slots refilled since, or built under other inputs, are built again (parallel over
+  // slots). False, building nothing, where masks do not apply: a device with its own memory, a voxel
+  // type without masks, a mode other than DVR and labels, or `linear` false (a B-spline filter reads
+  // voxels beyond the trilinear cell).
+  bool update_masks(const CullParams& cull, std::uint64_t key, bool linear);
+  // What a caster sharing host memory reads: the host's own tables; with `masks` the slots' voxel
+  // masks (only after update_masks returned true for this frame's culling).
+  VirtualMemoryView host_view(bool masks = false);
   // Casts on the device; with device memory, the changed page-table words go first and the misses
   // and slot usage it copies back land in the host's miss buffer and usage stamps.
   void cast(const CastRequest& request, Frame& frame);
@@ -81,6 +89,7 @@ class Residency {
 
  private:
   void copy_to_host_slot(const LoadedBrick& b, std::uint32_t slot);
+  void build_mask(std::uint32_t slot, const VoxelMaskBuilder& builder, bool labels);
   void stage_upload(LoadedBrick&& b, std::uint32_t slot);
   void sync_device_page_table();
   void take_feedback(const CastFeedback& fb, std::uint32_t frame);

@@ -308,6 +308,11 @@ struct RayCaster {
         }
       }
     }
+    if constexpr (!kFine && requires { volume.fine_cell(ray, vec3(0.0f), vec3(0.0f), ctx, clear_v); }) {
+      if (p.filter == Filter::Linear && (p.mode == RenderMode::Dvr || p.mode == RenderMode::Labels)) {
+        return march_leaping(ray, t_entry, k, k1, acc, ctx, clear_v, lod_varies);
+      }
+    }
     // Without the grid every sample; with it the samples past the grid's edge, if rounding left any
     // (still under the mask).
     for (; k < k1; ++k) {
@@ -315,6 +320,45 @@ struct RayCaster {
     }
     return true;
   }
+
+  // Out of core: the samples [k, k1) with leaps over the clear fine cells of resident bricks
+  // (VirtualSampler::fine_cell). A leap ends at the cell's exit and never crosses a change of the
+  // level of detail (the level grows along the ray, so the first and last samples of the leap share it
+  // only if all between do); the samples it passes would each find their mask bit clear, so the image
+  // and every miss, usage and shortfall count are those of sampling one by one.
+  SL_HOST_DEVICE bool march_leaping(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx,
+                                    float& clear_v, bool lod_varies) const {
+    const vec3 inv_dir = FineOccupancyView::inverse_direction(ray);
+    float occupied_until = -1.0f;  // the samples before this t lie in an occupied cell: no question
+    std::uint64_t leapt = 0;
+    bool alive = true;
+    for (; k < k1; ++k) {
+      const float t = t_entry + float(k) * p.dt;
+      if (t >= occupied_until) {
+        if (lod_varies) ctx.level = p.lod.level_at(t);
+        float t_exit;
+        const auto cell = volume.fine_cell(ray, inv_dir, ray.at(t), ctx, t_exit);
+        if (cell == Sampler::kOccupied) {
+          occupied_until = t_exit;
+        } else if (cell == Sampler::kClear) {
+          int next = sample_index(t_exit, t_entry, p.inv_dt);
+          next = next < k1 ? next : k1;
+          if (next > k + 1 && (!lod_varies || p.lod.level_at(t_entry + float(next - 1) * p.dt) == ctx.level)) {
+            leapt += std::uint64_t(next - k);
+            k = next - 1;
+            continue;
+          }
+        }
+      }
+      if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, nullptr)) {
+        alive = false;
+        break;
+      }
+    }
+    volume.count_left_out(leapt);
+    return alive;
+  }
+
 
   // Sample k of march_local: fetch, classify, composite. False once the ray has terminated. `mask`
   // (optional): the sample is left out, not fetched, where its trilinear cell's bit is clear (exact:
@@ -336,7 +380,17 @@ struct RayCaster {
       }
     } else {
       if (lod_varies) ctx.level = p.lod.level_at(t);
-      v = value_at(pos, ctx);
+      if constexpr (requires { volume.sample_unless_clear(pos, ctx, v); }) {
+        // Out of core, the serving brick's own voxel mask (cache/brick_cache.h), for trilinear samples in
+        // the modes it is built for (the caller's view holds masks only then): left out, not fetched.
+        if (p.filter != Filter::Linear) {
+          v = value_at(pos, ctx);
+        } else if (!volume.sample_unless_clear(pos, ctx, v)) {
+          return true;
+        }
+      } else {
+        v = value_at(pos, ctx);
+      }
     }
     ++acc.samples;
     switch (p.mode) {

@@ -42,6 +42,9 @@ struct CacheStats {
   // requests, when it exceeds the cache (0 otherwise).
   double completeness = 1.0;
   double lod_coarsened = 0.0;
+  // Samples the bricks' voxel masks and fine cells left out (they contribute nothing; not in
+  // Stats::samples, which counts the samples taken).
+  std::uint64_t samples_left_out = 0;
   std::uint64_t bricks_missing = 0;
   double working_set_mb = 0;
   int working_set_level = 0;

@@ -62,9 +62,9 @@ std::vector<std::uint32_t> opacity_reach(const TransferFunction* tf, std::uint32
 // enabled" of the four rows, then of x and x + 1.
 template <class T, class L>
 std::size_t build_mask(const T* data, const L* labels, const ivec3& d, const std::vector<std::uint32_t>& reach,
-                       const LabelSet* enabled, int row_words, std::uint64_t* bits) {
+                       const LabelSet* enabled, int row_words, std::uint64_t* bits, bool parallel) {
   std::atomic<std::size_t> set{0};
-  parallel_for(0, d.z, [&](int z) {
+  const auto plane = [&](int z) {
     std::vector<T> mn(std::size_t(d.x)), mx(std::size_t(d.x));
     std::vector<std::uint8_t> on(std::size_t(d.x), 1);
     const std::size_t sx = std::size_t(d.x), sxy = sx * std::size_t(d.y);
@@ -101,7 +101,12 @@ std::size_t build_mask(const T* data, const L* labels, const ivec3& d, const std
       }
     }
     set += count;
-  });
+  };
+  if (parallel) {
+    parallel_for(0, d.z, plane);
+  } else {
+    for (int z = 0; z < d.z; ++z) plane(z);
+  }
   return set.load();
 }
 
@@ -111,11 +116,44 @@ bool VoxelMask::supported(const VolumeView& volume) {
   return volume.type == VoxelType::U8 || volume.type == VoxelType::U16;
 }
 
-void VoxelMask::build(const VolumeView& volume, const VolumeView* labels, const CullParams& cull) {
-  if (!supported(volume)) throw std::logic_error("VoxelMask: u8 and u16 volumes only");
+VoxelMaskBuilder::VoxelMaskBuilder(VoxelType type, const CullParams& cull)
+    : type_(type), cull_(cull), reach_(opacity_reach(cull.tf, type == VoxelType::U8 ? 256u : 65536u)) {
+  if (type != VoxelType::U8 && type != VoxelType::U16) throw std::logic_error("VoxelMask: u8 and u16 volumes only");
   if (cull.mode != RenderMode::Dvr && cull.mode != RenderMode::Labels) {
     throw std::logic_error("VoxelMask: DVR and labels modes only");
   }
+}
+
+std::size_t VoxelMaskBuilder::build(const VolumeView& volume, const VolumeView* labels, int row_words,
+                                    std::uint64_t* bits, bool parallel) const {
+  SL_CHECK(volume.type == type_);
+  // The label test of classify_block: only with an enabled set and a label volume.
+  const VolumeView* lv = cull_.enabled && labels && labels->data ? labels : nullptr;
+  std::size_t set = 0;
+  dispatch_voxel(volume.type, [&](auto vtag) {
+    using T = decltype(vtag);
+    if constexpr (std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>) {
+      const T* data = static_cast<const T*>(volume.data);
+      if (!lv) {
+        set = build_mask<T, std::uint8_t>(data, nullptr, volume.dims, reach_, nullptr, row_words, bits, parallel);
+        return;
+      }
+      dispatch_label(
+          lv->type,
+          [&](auto ltag) {
+            using L = decltype(ltag);
+            set = build_mask<T, L>(data, static_cast<const L*>(lv->data), volume.dims, reach_, cull_.enabled,
+                                   row_words, bits, parallel);
+          },
+          [] { throw std::logic_error("VoxelMask: label volume of a float type"); });
+    }
+  });
+  return set;
+}
+
+void VoxelMask::build(const VolumeView& volume, const VolumeView* labels, const CullParams& cull) {
+  if (!supported(volume)) throw std::logic_error("VoxelMask: u8 and u16 volumes only");
+  const VoxelMaskBuilder builder(volume.type, cull);
   const ivec3 d = volume.dims;
   view_ = VoxelMaskView{};
   view_.dims = d;
@@ -124,27 +162,7 @@ void VoxelMask::build(const VolumeView& volume, const VolumeView* labels, const 
   view_.inv_spacing = 1.0f / volume.spacing;
   view_.max_coord = vec3(d - 1);
   bits_.assign(view_.word_count(), 0u);
-  // The label test of classify_block: only with an enabled set and a label volume.
-  const VolumeView* lv = cull.enabled && labels && labels->data ? labels : nullptr;
-  const std::vector<std::uint32_t> reach = opacity_reach(cull.tf, volume.type == VoxelType::U8 ? 256u : 65536u);
-  dispatch_voxel(volume.type, [&](auto vtag) {
-    using T = decltype(vtag);
-    if constexpr (std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>) {
-      const T* data = static_cast<const T*>(volume.data);
-      if (!lv) {
-        set_ = build_mask<T, std::uint8_t>(data, nullptr, d, reach, nullptr, view_.row_words, bits_.data());
-        return;
-      }
-      dispatch_label(
-          lv->type,
-          [&](auto ltag) {
-            using L = decltype(ltag);
-            set_ = build_mask<T, L>(data, static_cast<const L*>(lv->data), d, reach, cull.enabled, view_.row_words,
-                                    bits_.data());
-          },
-          [] { throw std::logic_error("VoxelMask: label volume of a float type"); });
-    }
-  });
+  set_ = builder.build(volume, labels, view_.row_words, bits_.data(), /*parallel=*/true);
   view_.bits = bits_.data();
 }
 

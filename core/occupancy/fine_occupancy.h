@@ -20,12 +20,11 @@
 #include "core/util/config.h"
 #include "core/util/math.h"
 #include "core/util/ray.h"
+#include "core/occupancy/culling.h"
 #include "core/recon/sampling.h"
+#include "core/scene/volume.h"
 
 namespace sl {
-
-struct BlockMetadataTable;
-struct CullParams;
 
 // The finest level: a bit per trilinear cell (the 2×2×2 voxels one sample blends), set when a sample
 // in it can contribute under the current transfer function and labels (DVR and labels modes, the
@@ -166,7 +165,24 @@ struct FineCellWalk {
   }
 };
 
-struct VolumeView;
+// The voxel mask's rule for one culling input: the bits of the trilinear cells of a dense u8/u16 block
+// of voxels (a whole volume, or one brick's stored voxels out of core), cell (x, y, z) anchored at voxel
+// (x, y, z) and reading its +1 neighbours (clamped at the block's last voxel). Holds the transfer
+// function's opacity reach, worked out once per culling input.
+class VoxelMaskBuilder {
+ public:
+  // cull.mode must be Dvr or Labels and `type` u8 or u16 (std::logic_error otherwise).
+  VoxelMaskBuilder(VoxelType type, const CullParams& cull);
+  // Sets the bits of `volume`'s cells into `bits` (zeroed by the caller; rows of `row_words` words,
+  // planes of row_words * dims.y) and returns how many are set. `labels` as VoxelMask::build.
+  std::size_t build(const VolumeView& volume, const VolumeView* labels, int row_words, std::uint64_t* bits,
+                    bool parallel) const;
+
+ private:
+  VoxelType type_;
+  CullParams cull_;
+  std::vector<std::uint32_t> reach_;
+};
 
 // The host side of VoxelMaskView: built from the volume (and labels) for the current culling
 // parameters, one pass over the voxels (parallel over rows); u8 and u16 volumes only (supported()).

@@ -134,14 +134,20 @@ BrickId brick(int k) { return BrickId::pack(0, {k % 4, k / 4 % 5, k / 20}); }
 
 TEST(BrickCache, SlotCountFromBudget) {
   const BrickLayout layout = BrickLayout::make(ivec3(97, 131, 73), vec3(1.0f), 32);
-  // u8 voxels 34³ = 39304 B -> 39360 (64-byte rows); u32 labels 157216 B -> 157248; 196608 B/slot.
+  // u8 voxels 34³ = 39304 B -> 39360 (64-byte rows); u32 labels 157216 B -> 157248; the voxel mask,
+  // a bit per stored voxel: 39304 bits -> 615 words -> 616 (64-byte lines) = 4928 B; 201536 B/slot.
   const BrickCache c(layout, VoxelType::U8, VoxelType::U32, 1);
-  EXPECT_EQ(c.slot_bytes(), 196608u);
+  EXPECT_EQ(c.slot_bytes(), 201536u);
   EXPECT_EQ(c.slot_count(), 5u);
   EXPECT_EQ(c.resident_count(), 0u);
   EXPECT_TRUE(c.has_labels());
   BrickCache no_labels(layout, VoxelType::U8, std::nullopt, 1);
-  EXPECT_EQ(no_labels.slot_count(), (1u << 20) / 39360u);
+  EXPECT_EQ(no_labels.slot_count(), (1u << 20) / (39360u + 4928u));
+  EXPECT_EQ(no_labels.slot_mask(0).size(), 616u);
+  // A float volume has no voxel mask.
+  const BrickCache f32(layout, VoxelType::F32, std::nullopt, 1);
+  EXPECT_FALSE(f32.masks_supported());
+  EXPECT_EQ(f32.slot_bytes(), 157248u);  // 34³ x 4 B in 64-byte rows
   EXPECT_FALSE(no_labels.has_labels());
   EXPECT_TRUE(no_labels.slot_labels(0).empty());
   EXPECT_EQ(no_labels.slot_voxels(0).size(), 39304u);

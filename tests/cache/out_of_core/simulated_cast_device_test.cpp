@@ -3,6 +3,7 @@
 // at the next frame boundary, misses and usage come back and drive resolution and LRU, and the
 // converged image equals the CPU out-of-core and in-core images.
 #include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
 
 #include <cmath>
 #include <cstdio>
@@ -96,11 +97,51 @@ TEST(SimulatedCastDevice, ConvergedImageEqualsCpuOutOfCoreAndInCore) {
   EXPECT_EQ(b.stats.backend, "cpu");  // the stand-in casts with the CPU caster
   EXPECT_EQ(max_abs_diff(a.image, b.image), 0.0f) << "stand-in vs CPU out of core";
   EXPECT_LE(max_abs_diff(b.image, in_core.image), 1e-5f) << "stand-in vs in core";
-  EXPECT_EQ(a.stats.samples, b.stats.samples);
+  // The CPU leaves out, through its bricks' voxel masks and fine cells, samples the stand-in (which has
+  // no masks, like the CUDA device) takes: every sample is one or the other.
+  EXPECT_GT(a.stats.cache.samples_left_out, 0u);
+  EXPECT_EQ(b.stats.cache.samples_left_out, 0u);
+  EXPECT_EQ(a.stats.samples + a.stats.cache.samples_left_out, b.stats.samples);
   EXPECT_GT(total_alpha(in_core.image), 1.0f) << "the comparison must not be of two empty images";
   // Uploads complete one frame later than on the CPU, so convergence may take a frame or two more.
   EXPECT_GE(sim_frames, cpu_frames);
   EXPECT_LE(sim_frames, cpu_frames + 6);
+}
+
+// The voxel masks and fine cells of resident bricks leave out only samples that contribute nothing, for
+// any opacity window, either mode they apply to, any brick size, a pinned or the automatic level of
+// detail: the converged CPU image (with them) equals the stand-in's (without, like the CUDA device) bit
+// for bit, and every sample the stand-in takes the CPU takes or counts as left out. Completeness is
+// a share of all samples, so it agrees too.
+RC_GTEST_PROP(SimulatedCastDevice, MasksAndFineCellsLeaveOutOnlyWhatContributesNothing, ()) {
+  static const Data d = neurites(ivec3(72, 64, 56), 3);
+  const int lo = *rc::gen::inRange(0, 250);
+  const int hi = *rc::gen::inRange(lo + 1, 256);
+  const float a = *rc::gen::element(0.05f, 0.5f, 1.0f);
+  const TransferFunction tf({TfPoint{float(lo), vec4(0.2f, 0.6f, 1.0f, 0.0f)},
+                             TfPoint{float(hi), vec4(1.0f, 0.8f, 0.3f, a)}});
+  const LabelSet enabled = parse_enable_spec("fraction:0.5:" + std::to_string(*rc::gen::inRange(1, 9)),
+                                             d.label_count);
+  RenderSettings s;
+  s.width = 48;
+  s.height = 40;
+  s.mode = *rc::gen::element(RenderMode::Dvr, RenderMode::Labels);
+  s.ert = *rc::gen::arbitrary<bool>();
+  OutOfCoreSettings os;
+  os.brick = *rc::gen::element(8, 16, 32);
+  os.lod = *rc::gen::element(-1, 0, 1);
+  os.cache_mb = 64;
+  const bool label_mask = s.mode == RenderMode::Labels || *rc::gen::arbitrary<bool>();
+  const OutOfCoreScene scene{&tf, label_mask ? &enabled : nullptr,
+                             default_camera(d.volume->desc().extent())};
+  Rig cpu = make_rig(d, os, 8, false);
+  Rig sim = make_rig(d, os, 8, true);
+  s.block = 8;
+  const Frame fa = converge(*cpu.renderer, scene, s);
+  const Frame fb = converge(*sim.renderer, scene, s);
+  RC_ASSERT(max_abs_diff(fa.image, fb.image) == 0.0f);
+  RC_ASSERT(fa.stats.samples + fa.stats.cache.samples_left_out == fb.stats.samples);
+  RC_ASSERT(fa.stats.cache.completeness == fb.stats.cache.completeness);
 }
 
 // A device with its own memory counts the shortfall in its own counters (as the CUDA device does in
