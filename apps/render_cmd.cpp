@@ -30,8 +30,8 @@ namespace {
 constexpr int kExitPartial = 4;
 // The cap on frames of one view without --frames or --max-frames: far above what a settling view
 // takes (each frame waits for the loads the last one asked for, so frames follow the tree's growth
-// and the rounds of loads, not the loader's speed), so reaching it means the view is not settling,
-// and a run left alone still ends.
+// and the per-frame upload budget, not the loader's speed), so reaching it means the view is not
+// settling, and a run left alone still ends.
 constexpr int kDefaultMaxFrames = 1000;
 constexpr int kFrameLimit = 100000;
 
