@@ -128,7 +128,7 @@ TEST(LabelStore, CorruptChunkWithoutMaxLabelRendersOutOfCore) {
   test::write_text(chunk, "not zstd at all");
   const std::string out = (dir / "o").string();
   r = test::run_sparseleap("render --backend cpu --size 32x32 --cache-mb 16 --brick 8 --block 8 --lod 0 --frames 40 "
-                           "--mode labels --enable all --volume " + (dir / "s.zarr").string() + " --out " + out +
+                           "--allow-partial --mode labels --enable all --volume " + (dir / "s.zarr").string() + " --out " + out +
                            " --stats-json " + (dir / "o.json").string());
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(out + ".png"));
@@ -158,7 +158,7 @@ TEST(OutOfCoreWarning, ControlBytesInTheReasonAreEscaped) {
   test::write_text(first_chunk(store / "0"), "not zstd at all");
   // stderr alone (the summary on stdout names the store as given).
   r = test::run_shell(test::sparseleap_exe().string() + " render --backend cpu --size 32x32 --cache-mb 16 --brick 8 "
-                      "--block 8 --lod 0 --frames 40 --volume '" + store.string() + "' --out " + (dir / "o").string() +
+                      "--block 8 --lod 0 --frames 40 --allow-partial --volume '" + store.string() + "' --out " + (dir / "o").string() +
                       " --stats-json " + (dir / "o.json").string() + " 2>&1 >/dev/null");
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output.find('\x1b'), std::string::npos) << r.output;

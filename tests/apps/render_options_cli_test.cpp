@@ -243,7 +243,7 @@ TEST(RenderOptions, InjectFaultsSpecsAreCheckedEverywhere) {
 TEST(RenderOptions, InjectedFaultsAreCountedInTheSummaryAndStats) {
   const fs::path dir = test::scratch_dir();
   const test::RunResult r =
-      run("render", small("--size 32x32 --cache-mb 16 --brick 8 --block 8 --lod 0 --frames 30 --inject-faults "
+      run("render", small("--size 32x32 --cache-mb 16 --brick 8 --block 8 --lod 0 --frames 30 --allow-partial --inject-faults "
                           "permanent=0.2,transient=0.2,seed=3 --out " + (dir / "f").string() + " --stats-json " +
                           (dir / "f.json").string()));
   ASSERT_EQ(r.exit_code, 0) << r.output;

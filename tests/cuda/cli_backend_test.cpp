@@ -57,8 +57,8 @@ TEST(CudaCli, InCoreCudaIsOneClearLineWithoutADeviceAndAutoFallsBack) {
 }
 
 TEST(CudaCli, OutOfCoreCudaIsOneClearLineWithoutADeviceAndAutoFallsBack) {
-  expect_cuda_backend("render --volume procedural:neurites:96x96x96 --cache-mb 64 --size 32x24 --frames 2");
-  expect_auto_backend("render --volume procedural:neurites:96x96x96 --cache-mb 64 --size 32x24 --frames 2");
+  expect_cuda_backend("render --volume procedural:neurites:96x96x96 --cache-mb 64 --size 32x24");
+  expect_auto_backend("render --volume procedural:neurites:96x96x96 --cache-mb 64 --size 32x24");
 }
 
 TEST(CudaCli, BadInputStaysTheOnlyLineUnderAuto) {

@@ -121,6 +121,27 @@ TEST_F(Distributed, SmallCachePerRankEqualsSingleProcess) {
   expect_same_image(" --volume builtin:neurites:96x80x64 --brick 16 --cache-mb 1 --size 96x80 --frames 80 --strict");
 }
 
+// Without --frames, the single process and every rank render until complete (the ranks agree per
+// frame that all have converged), so the composite is the converged image and the exit status 0.
+TEST_F(Distributed, UntilCompleteWithoutFramesEqualsSingleProcess) {
+  expect_same_image(" --volume builtin:neurites:96x80x64 --brick 16 --cache-mb 1 --size 96x80");
+}
+
+// Stopped short by --max-frames, rank 0 writes the composite of the last frames and exits 4 after one
+// line; --allow-partial makes it 0.
+TEST_F(Distributed, StoppedShortIsPartial) {
+  const std::string exe = test::sparseleap_exe().string();
+  const std::string out = (dir / "partial").string();
+  const std::string args = " --volume builtin:neurites:96x80x64 --brick 16 --cache-mb 1 --size 96x80 --max-frames 1";
+  test::RunResult r = test::run_shell(mpirun(2) + " " + exe + " render --distributed" + args + " --out " + out + " 2>&1");
+  EXPECT_EQ(r.exit_code, 4) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(out + ".exr"));
+  EXPECT_NE(r.output.find("sparseleap: incomplete image written to " + out + ".png"), std::string::npos) << r.output;
+  r = test::run_shell(mpirun(2) + " " + exe + " render --distributed" + args + " --allow-partial --out " + out + " 2>&1");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("sparseleap: partial (--allow-partial) image written to "), std::string::npos) << r.output;
+}
+
 TEST_F(Distributed, IsoAndLabelsEqualSingleProcess) {
   expect_same_image(std::string(kVolume) + " --mode iso");
   expect_same_image(std::string(kVolume) + " --mode labels --enable all");
