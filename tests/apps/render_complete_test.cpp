@@ -5,6 +5,10 @@
 #include <gtest/gtest.h>
 
 #include <filesystem>
+#include <string>
+#include <system_error>
+
+#include <unistd.h>
 
 #include "cache/formats/nrrd/nrrd.h"
 #include "core/scene/generate.h"
@@ -31,7 +35,10 @@ bool has(const std::string& text, const std::string& what) { return text.find(wh
 class RenderComplete : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    dir_ = new fs::path(test::scratch_dir());
+    // ctest runs each test in its own process, possibly at once: the suite's folder is the process's own.
+    dir_ = new fs::path(fs::path(SL_BINARY_DIR) / "test-scratch" / ("RenderComplete." + std::to_string(getpid())));
+    fs::remove_all(*dir_);
+    fs::create_directories(*dir_);
     GeneratedVolume g = generate_volume("neurites", ivec3(128), 5);
     write_nrrd((*dir_ / "n.nrrd").string(), g.intensity);
     const test::RunResult r =
@@ -41,6 +48,8 @@ class RenderComplete : public ::testing::Test {
     ASSERT_EQ(in_core.exit_code, 0) << in_core.output;
   }
   static void TearDownTestSuite() {
+    std::error_code ec;
+    fs::remove_all(*dir_, ec);
     delete dir_;
     dir_ = nullptr;
   }
