@@ -9,6 +9,7 @@
 #include "cache/formats/ingest.h"
 #include "cache/formats/nrrd/nrrd.h"
 #include "cache/formats/zarr/source.h"
+#include "cache/formats/zarr/writer.h"
 #include "cache/volume_source.h"
 #include "core/util/error.h"
 #include "tests/cache/formats/zarr_test_util.h"
@@ -84,6 +85,49 @@ TEST(Ingest, PyramidMatchesMemoryVolumeSourceForEveryChunkSize) {
     EXPECT_EQ(src.max_label(), max_label(*lab));
     expect_same_bricks(src, ref, 8);
     expect_same_bricks(src, ref, 32);
+  }
+}
+
+// The max pyramid beside the mean (docs/formats.md "Max levels"): its bricks equal MemoryVolumeSource's
+// max pyramid at every level, in Zarr v2 and v3 (sharded); a store read without a choice serves it;
+// the mean pyramid of the same store is unchanged; a store without max levels refuses Max.
+TEST(Ingest, WritesAndReadsBackTheMaxPyramid) {
+  const fs::path dir = test::scratch_dir();
+  const ivec3 dims(45, 38, 71);
+  auto v = std::make_shared<const Volume>(ramp(VoxelType::U16, dims));
+  write_nrrd((dir / "v.nrrd").string(), *v);
+  const MemoryVolumeSource mean(v, nullptr, "v", PyramidKind::Mean), max(v, nullptr, "v", PyramidKind::Max);
+  for (const int format : {2, 3}) {
+    SCOPED_TRACE("zarr v" + std::to_string(format));
+    IngestOptions o;
+    o.chunk = 16;
+    o.zarr_format = format;
+    o.shard = format == 3 ? 2 : 0;
+    o.force = true;
+    const IngestResult r = ingest((dir / "v.nrrd").string(), (dir / "s.zarr").string(), o);
+    EXPECT_TRUE(fs::is_directory(dir / "s.zarr" / "max" / "1"));
+    EXPECT_FALSE(fs::exists(dir / "s.zarr" / "max" / "0"));
+    const ZarrVolumeSource chosen((dir / "s.zarr").string());
+    EXPECT_EQ(chosen.pyramid(), PyramidKind::Max);
+    EXPECT_EQ(chosen.stored_max_levels(), r.levels - 1);
+    expect_same_bricks(chosen, max, 8);
+    expect_same_bricks(ZarrVolumeSource((dir / "s.zarr").string(), "", PyramidKind::Mean), mean, 8);
+  }
+  // A store of a writer without max levels: mean by default, Max refused naming the store.
+  zarr::WriterOptions wo;
+  wo.chunk = 64;
+  wo.levels = 2;
+  zarr::StoreWriter w(dir / "m.zarr", "m.zarr", v->desc(), wo);
+  w.write_slab(zarr::Target::Image, 0, 0, dims.z, v->data());
+  const MemoryVolumeSource one(v);
+  const Volume& l1 = one.level(1);
+  w.write_slab(zarr::Target::Image, 1, 0, l1.dims().z, l1.data());
+  EXPECT_EQ(ZarrVolumeSource((dir / "m.zarr").string()).pyramid(), PyramidKind::Mean);
+  try {
+    ZarrVolumeSource((dir / "m.zarr").string(), "", PyramidKind::Max);
+    ADD_FAILURE() << "Max accepted without max levels";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("no max pyramid"), std::string::npos) << e.what();
   }
 }
 
