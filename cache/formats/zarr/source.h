@@ -27,11 +27,11 @@ namespace sl {
 class ZarrVolumeSource final : public VolumeSource {
  public:
   // Opens `path` and, when `labels_path` is not empty, that store's image as the labels (replacing the
-  // store's own labels/ group). `pyramid`: the intensity pyramid to serve; none = max when the store
-  // has max levels, mean otherwise. Throws InputError for bad metadata, a coarsest level too large, or
+  // store's own labels/ group). `pyramid`: the intensity pyramid to serve; nullopt = max when the
+  // store has max levels, mean otherwise (`--pyramid`'s default). Throws InputError for bad metadata, a coarsest level too large, or
   // Max asked of a store without max levels.
   explicit ZarrVolumeSource(const std::string& path, const std::string& labels_path = "",
-                            std::optional<PyramidKind> pyramid = std::nullopt,
+                            std::optional<PyramidKind> pyramid = PyramidKind::Mean,
                             std::size_t chunk_cache_bytes = zarr::kDefaultChunkCacheBytes);
 
   const VolumeDesc& desc() const override { return image_->multiscale().desc; }
