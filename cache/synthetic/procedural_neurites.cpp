@@ -90,6 +90,17 @@ struct Accumulator {
                                                                   std::memory_order_relaxed);
     add_peak(i, brightness);
   }
+  // The max pyramid where a tube's radius r is known: every voxel its core (within r of the centre
+  // line) reaches at centre-line point q, including voxels the centre line itself never enters.
+  void add_peak_around(const vec3& q, float r, float brightness) {
+    const vec3 lo = glm::max(q - r, vec3(0.0f)), hi = glm::min(q + r, vec3(dims0) - 1e-3f);
+    if (glm::any(glm::greaterThan(lo, hi))) return;
+    const ivec3 a = glm::max(ivec3(glm::floor(lo)) / s - first, ivec3(0));
+    const ivec3 b = glm::min(ivec3(glm::floor(hi)) / s - first, n - 1);
+    for (int z = a.z; z <= b.z; ++z)
+      for (int y = a.y; y <= b.y; ++y)
+        for (int x = a.x; x <= b.x; ++x) add_peak((std::int64_t(z) * n.y + y) * n.x + x, brightness);
+  }
   void add_peak(std::int64_t i, float brightness) {
     const std::uint32_t b = std::uint32_t(std::min(255.0f, std::floor(brightness + 0.5f)));
     std::atomic_ref<std::uint32_t> r(peak[std::size_t(i)]);
@@ -283,7 +294,9 @@ void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float d
     // Sample centres on the global grid (k + 0.5) * ds: the same samples whichever brick asks.
     for (std::int64_t k = std::int64_t(std::floor(t_lo / ds)); (float(k) + 0.5f) * ds < t_hi; ++k) {
       const float t = (float(k) + 0.5f) * ds;
-      const std::int64_t i = acc.index(per_sample ? fibre_at(f, t).p : fibre_centre(f, t));
+      const vec3 q = per_sample ? fibre_at(f, t).p : fibre_centre(f, t);
+      if (per_sample) acc.add_peak_around(q, fibre_at(f, t).r, f.brightness);
+      const std::int64_t i = acc.index(q);
       if (i < 0) {
         acc.flush(run, f.id);
         continue;
@@ -317,12 +330,14 @@ void path_splat(const Params& p, PyramidKind pyramid, int level, ivec3 first, iv
       Accumulator::Run run;
       for (std::uint32_t k = path.begin + 1; k < path.end; ++k) {
         const PathNode &a = paths.nodes[k - 1], &b = paths.nodes[k];
-        const std::int64_t i = acc.index(0.5f * (a.p + b.p));
+        const vec3 mid = 0.5f * (a.p + b.p);
+        const float r = 0.5f * (a.r + b.r), len = glm::distance(a.p, b.p);
+        acc.add_peak_around(mid, r, path.brightness);
+        const std::int64_t i = acc.index(mid);
         if (i < 0) {
           acc.flush(run, path.id);
           continue;
         }
-        const float r = 0.5f * (a.r + b.r), len = glm::distance(a.p, b.p);
         acc.add(i, path.brightness * cross_section(r) * len, path.brightness);
         acc.add_core(run, i, kPi * r * r * len, path.id);
       }

@@ -23,10 +23,12 @@
 //
 // The max pyramid (PyramidKind::Max, pyramid.h) by the same methods: the exact levels reduce with
 // reduce_max, so they equal MemoryVolumeSource's max pyramid; the splatted levels take, per voxel, the
-// brightness of the brightest tube whose centre-line samples fall in it (a tube's core voxels have
-// its brightness), on the CellSum levels over the same subset of cells as the mass. Like the splatted
-// mean this approximates the reduction (a tube's halo reaching into a neighbouring voxel is not
-// counted there), but no tube is lost: every voxel its centre line crosses gets its brightness.
+// brightness of the brightest tube reaching it (a tube's core voxels have its brightness): on the
+// PathSplat levels every voxel within a tube's radius of its walked centre line, on the coarser ones
+// the voxels its stand-in segment or fibre samples fall in, on the CellSum levels over the same subset
+// of cells as the mass. Like the splatted mean this approximates the reduction (halos, and on the
+// hashed levels the stand-in's offset from the walked path), but no tube is lost: some voxel of every
+// level gets its brightness.
 //
 // Culling bounds (bound_blocks, DESIGN.md "Virtual memory"): on the exact levels 1-2, from the level-0
 // voxels below each block (synthesised as read_brick does); on the splatted levels >= 3, whose voxels

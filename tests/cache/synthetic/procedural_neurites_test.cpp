@@ -171,8 +171,8 @@ TEST(ProceduralNeurites, MaxLevelsAreTheMaxReductionOfTheirFinerLevel) {
 }
 
 // The splatted max levels: a coarse voxel over a tube core (a child >= 128 in the level below) is
-// itself bright in nearly every case, as the max reduction would make it; the mean levels there are
-// mostly dark. Misses come from tubes whose core reaches into a voxel their centre line does not cross.
+// itself bright, as the max reduction would make it: on the walked levels (3-4) all but a few (halos),
+// on the hashed ones most (their stand-in segments lie off the walked paths the level below shows).
 TEST(ProceduralNeurites, SplattedMaxLevelsKeepTubesVisible) {
   const ProceduralNeuritesSource src(kHuge, 1, "max", PyramidKind::Max);
   const BrickLayout layout = BrickLayout::make(src.desc());
@@ -191,7 +191,8 @@ TEST(ProceduralNeurites, SplattedMaxLevelsKeepTubesVisible) {
     }
     std::printf("[ procedural ] max level %d: %zu of %zu voxels over a core are bright\n", level, kept, cores);
     EXPECT_GT(cores, 0u) << level;
-    EXPECT_GE(double(kept), 0.8 * double(cores)) << level;
+    const bool walked = ProceduralNeuritesSource::method(level) == Method::PathSplat;
+    EXPECT_GE(double(kept), (walked ? 0.99 : 0.7) * double(cores)) << level;
   }
 }
 
