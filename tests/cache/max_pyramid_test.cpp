@@ -9,9 +9,13 @@
 #include <memory>
 #include <vector>
 
+#include "core/scene/camera.h"
+#include "core/scene/transfer_function.h"
+#include "core/util/error.h"
 #include "cache/pyramid.h"
 #include "cache/volume_source.h"
-#include "core/util/error.h"
+#include "cache/out_of_core/renderer.h"
+#include "cache/synthetic/procedural_neurites.h"
 
 namespace sl {
 namespace {
@@ -100,6 +104,49 @@ TEST(MaxPyramid, MeanPyramidFadesALineTheMaxKeeps) {
     mean.read_brick(layout, id, a, {});
     max.read_brick(layout, id, b, {});
     EXPECT_EQ(a == b, level == 0) << level;
+  }
+}
+
+// Rendering, a pinned coarse level out of core: the procedural source's max pyramid renders the image
+// of a MemoryVolumeSource's max pyramid of the same level-0 voxels, pixel for pixel (same bricks, and
+// block bounds that agree with them), and shows more than the mean pyramid of those voxels.
+TEST(MaxPyramid, PinnedLevelRendersAlikeFromProceduralAndMemorySources) {
+  const ivec3 dims(160, 128, 96);
+  auto procedural = std::make_shared<ProceduralNeuritesSource>(dims, 7, "p", PyramidKind::Max);
+  auto vol = std::make_shared<Volume>(VolumeDesc{dims, vec3(1.0f), VoxelType::U8});
+  auto lab = std::make_shared<Volume>(VolumeDesc{dims, vec3(1.0f), VoxelType::U32});
+  procedural->synthesize(0, ivec3(0), dims, vol->as<std::uint8_t>(), lab->as<std::uint32_t>());
+  const TransferFunction tf = default_transfer_function(0.0f, 255.0f);
+  const Camera cam = default_camera(vol->desc().extent());
+  RenderSettings rs;
+  rs.width = 96;
+  rs.height = 80;
+  const auto converged = [&](std::shared_ptr<const VolumeSource> src, int level) {
+    OutOfCoreSettings os;
+    os.cache_mb = 64;
+    os.lod = level;
+    OutOfCoreRenderer r(std::move(src), os, 16);
+    Frame f;
+    for (int i = 0; i < 40; ++i) {
+      f = r.render(OutOfCoreScene{&tf, nullptr, cam}, rs);
+      if (r.converged()) break;
+      r.wait_for_loads();
+    }
+    EXPECT_TRUE(r.converged());
+    return f.image.rgba;
+  };
+  const auto lit = [](const std::vector<vec4>& rgba) {
+    std::size_t n = 0;
+    for (const vec4& p : rgba) n += p.a > 0.05f;
+    return n;
+  };
+  for (const int level : {1, 2}) {
+    SCOPED_TRACE("level " + std::to_string(level));
+    const auto p = converged(procedural, level);
+    const auto m = converged(std::make_shared<MemoryVolumeSource>(vol, lab, "m", PyramidKind::Max), level);
+    const auto mean = converged(std::make_shared<MemoryVolumeSource>(vol, lab, "m", PyramidKind::Mean), level);
+    EXPECT_TRUE(p == m);
+    EXPECT_GT(lit(p), lit(mean));
   }
 }
 
