@@ -136,6 +136,11 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   c.add_option("--brick", o.brick, "Brick payload edge: 8, 16, 32 or 64 (out of core)")->capture_default_str();
   c.add_option("--lod", o.lod, "Pin every sample to this level (out of core; default: from the pixel footprint)");
   c.add_option("--lod-bias", o.lod_bias, "Level-of-detail bias, > 0; > 1 coarser (out of core)")->capture_default_str();
+  c.add_option("--pyramid", s.pyramid,
+               "Coarse levels shown out of core: mean (each voxel the average of the voxels below) or max (the "
+               "largest: thin, sparse structure stays visible when zoomed out). Default: max for procedural "
+               "volumes and stores holding max levels (`sparseleap ingest` writes them), mean otherwise")
+      ->check(CLI::IsMember({"mean", "max"}));
   c.add_option("--retire-frames", o.retire_frames,
                "Retire occupancy-tree nodes unused this many frames (out of core)")
       ->capture_default_str();

@@ -1,6 +1,7 @@
 #include "apps/scene_loader.h"
 
 #include <cstdio>
+#include <optional>
 #include <regex>
 
 #include "cache/testing/fault_injection.h"
@@ -182,8 +183,10 @@ SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
                                        : "a precomputed volume rendered out of core takes its labels from a precomputed volume");
     }
     if (store.kind == StoreKind::Zarr) {
-      fill_store_scene(s, std::make_shared<ZarrVolumeSource>(store.path, labels.path), o);
+      const auto pyramid = o.pyramid.empty() ? std::nullopt : std::optional(parse_pyramid_kind(o.pyramid, "--pyramid"));
+      fill_store_scene(s, std::make_shared<ZarrVolumeSource>(store.path, labels.path, pyramid), o);
     } else {
+      if (o.pyramid == "max") throw InputError(store.path, "a precomputed volume has no max levels for --pyramid max (use mean)");
       auto bytes = std::make_shared<CountingByteStore>(open_byte_store(store.path));
       auto label_bytes = o.labels.empty() ? nullptr : std::make_shared<CountingByteStore>(open_byte_store(labels.path));
       fill_store_scene(s, std::make_shared<PrecomputedVolumeSource>(bytes, store.path, label_bytes, labels.path), o);
@@ -196,7 +199,8 @@ SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
     if (!o.enable.empty()) {
       throw InputError("--enable", "label subsets of procedural volumes are not supported (their ids are hashed)");
     }
-    s.source = parse_volume_spec(o.volume);
+    // Thin neurites average away at coarse mean levels: the max pyramid keeps them in the overview.
+    s.source = parse_volume_spec(o.volume, o.pyramid.empty() ? PyramidKind::Max : parse_pyramid_kind(o.pyramid, "--pyramid"));
     s.name = o.volume;
     s.desc = s.source->desc();
     s.tf = o.tf.empty() ? default_transfer_function(0.0f, 255.0f) : load_transfer_function(o.tf);
@@ -213,7 +217,11 @@ SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
   s.volume = std::make_shared<const Volume>(std::move(ls.volume));
   if (!ls.labels.empty()) s.labels = std::make_shared<const Volume>(std::move(ls.labels));
   s.labelled = s.labels != nullptr;
-  if (out_of_core) s.source = std::make_shared<MemoryVolumeSource>(s.volume, s.labels, s.name);
+  // Mean unless asked: files held in memory are the dense scans and test sets whose overviews the mean suits.
+  if (out_of_core) {
+    s.source = std::make_shared<MemoryVolumeSource>(s.volume, s.labels, s.name,
+                                                    o.pyramid == "max" ? PyramidKind::Max : PyramidKind::Mean);
+  }
   return s;
 }
 

@@ -30,6 +30,7 @@ struct SceneOptions {
   std::string inject_faults;  // out of core: a fault spec (cache/testing/fault_injection.h); empty = none
   std::string disk_cache;          // --disk-cache: on-disk cache of remote store objects; empty = none
   std::size_t disk_cache_mb = 0;   // its bound (0: the default, 1024)
+  std::string pyramid;             // --pyramid: mean or max; empty = the source's default (scene_loader.cpp)
 };
 
 // A scene whose data may also be read out of core: a volume in memory (rendered in core, or through

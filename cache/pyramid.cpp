@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include "core/util/config.h"
+#include "core/util/error.h"
 #include "core/util/parallel.h"
 #include "core/scene/voxel_dispatch.h"
 
@@ -240,6 +241,16 @@ void reduce_mode(VoxelType t, const std::byte* src, ivec3 sd, std::byte* dst, in
       },
       [] { SL_CHECK(!"labels must be an integer type"); });
 }
+
+const char* pyramid_name(PyramidKind k) { return k == PyramidKind::Max ? "max" : "mean"; }
+
+PyramidKind parse_pyramid_kind(const std::string& text, const std::string& what) {
+  if (text == "mean") return PyramidKind::Mean;
+  if (text == "max") return PyramidKind::Max;
+  throw InputError(what, "must be mean or max, got '" + text + "'");
+}
+
+ReduceFn intensity_reduction(PyramidKind k) { return k == PyramidKind::Max ? reduce_max : reduce_mean; }
 
 void brick_read_box(const BrickLayout& layout, BrickId id, ivec3& first, ivec3& dims) {
   const ivec3 d = layout.dims(id.level());

@@ -7,6 +7,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <span>
+#include <string>
 #include <vector>
 
 #include "cache/brick.h"
@@ -14,6 +15,20 @@
 #include "core/scene/volume.h"
 
 namespace sl {
+
+// Which intensity pyramid a source renders its levels >= 1 from (level 0 is the data either way).
+//  - Mean: the average of the voxels below; right for dense data, where a coarse voxel should look
+//    like the blur of its region.
+//  - Max: the largest voxel below (reduce_max); keeps sparse structure (thin neurites, spots) that
+//    the mean averages under the transfer function's threshold, at the cost of thickening it.
+// The bounds pyramid bounds both, so culling is the same for either (DESIGN.md "Virtual memory").
+enum class PyramidKind { Mean, Max };
+const char* pyramid_name(PyramidKind k);
+// "mean" or "max"; anything else throws InputError(what, ...).
+PyramidKind parse_pyramid_kind(const std::string& text, const std::string& what);
+// The intensity reduction of one level step of pyramid `k` (reduce_mean or reduce_max).
+using ReduceFn = void (*)(VoxelType, const std::byte*, ivec3, std::byte*, int, int);
+ReduceFn intensity_reduction(PyramidKind k);
 
 // Level l + 1 voxel v is the reduction of level-l voxels 2v + {0,1}³ that exist (an odd edge takes
 // what exists). src has dims sd (x fastest); dst receives ceil(sd / 2). Rows z of dst in [z0, z1).

@@ -42,8 +42,8 @@ bool VolumeSource::bound_blocks(const BrickLayout&, int, int, std::span<const iv
 }
 
 MemoryVolumeSource::MemoryVolumeSource(std::shared_ptr<const Volume> intensity, std::shared_ptr<const Volume> labels,
-                                       std::string name)
-    : intensity_(std::move(intensity)), labels_(std::move(labels)), name_(std::move(name)) {
+                                       std::string name, PyramidKind pyramid)
+    : intensity_(std::move(intensity)), labels_(std::move(labels)), name_(std::move(name)), pyramid_(pyramid) {
   SL_CHECK(intensity_ && !intensity_->empty());
   if (labels_) {
     if (!is_integer(labels_->type())) throw InputError(name_, "labels must be an integer type, not f32");
@@ -115,7 +115,7 @@ void MemoryVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::
   check_request(layout, id, out_intensity, out_labels);
   const int l = id.level();
   SL_CHECK(l < levels() && level(l).dims() == layout.dims(l));
-  const Volume& v = level(l);
+  const Volume& v = pyramid_ == PyramidKind::Max ? max_level(l) : level(l);
   fill_brick(layout, id, v.data(), ivec3(0), v.dims(), voxel_size(v.type()), out_intensity);
   if (!out_labels.empty()) {
     const Volume& lv = *label_level(l);

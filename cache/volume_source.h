@@ -44,6 +44,9 @@ class VolumeSource {
   virtual bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
                             std::span<BlockMetadata> out) const;
 
+  // The intensity pyramid read_brick serves at levels >= 1 (pyramid.h), fixed at construction.
+  virtual PyramidKind pyramid() const { return PyramidKind::Mean; }
+
  protected:
   // Shared argument checks for implementations (internal errors: SL_CHECK).
   void check_request(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
@@ -60,9 +63,10 @@ class VolumeSource {
 class MemoryVolumeSource final : public VolumeSource {
  public:
   // labels may be null. Throws InputError(name, ...) when labels are not an integer type or their
-  // dims differ from the intensity volume's.
+  // dims differ from the intensity volume's. Both pyramids are built either way (the max one is the
+  // culling bound), `pyramid` picks the one read_brick serves.
   MemoryVolumeSource(std::shared_ptr<const Volume> intensity, std::shared_ptr<const Volume> labels = nullptr,
-                     std::string name = "volume");
+                     std::string name = "volume", PyramidKind pyramid = PyramidKind::Mean);
 
   const VolumeDesc& desc() const override { return intensity_->desc(); }
   bool has_labels() const override { return labels_ != nullptr; }
@@ -72,10 +76,13 @@ class MemoryVolumeSource final : public VolumeSource {
                   std::span<std::byte> out_labels) const override;
   bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
                     std::span<BlockMetadata> out) const override;
+  PyramidKind pyramid() const override { return pyramid_; }
 
-  // Level-l data (level 0 is the input), for tests and metadata; levels() reaches 1³.
+  // Level-l data (level 0 is the input) of the mean pyramid and of the max pyramid, for tests and
+  // metadata; levels() reaches 1³.
   int levels() const { return int(levels_.size()); }
   const Volume& level(int l) const { return l == 0 ? *intensity_ : levels_[std::size_t(l)]; }
+  const Volume& max_level(int l) const { return l == 0 ? *intensity_ : max_levels_[std::size_t(l)]; }
   const Volume* label_level(int l) const {
     return !labels_ ? nullptr : l == 0 ? labels_.get() : &label_levels_[std::size_t(l)];
   }
@@ -86,6 +93,7 @@ class MemoryVolumeSource final : public VolumeSource {
  private:
   std::shared_ptr<const Volume> intensity_, labels_;
   std::string name_;
+  PyramidKind pyramid_;
   std::vector<Volume> levels_, label_levels_;  // index 0 unused (the inputs are level 0)
   std::vector<Volume> min_levels_, max_levels_;  // bounds; index 0 unused
   std::vector<LabelSetLevel> label_sets_;        // index 0 unused

@@ -56,7 +56,7 @@ void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst) {
   }
 }
 
-std::vector<Volume> derive_levels(const Volume& base, bool labels) {
+std::vector<Volume> derive_levels(const Volume& base, ReduceFn reduce) {
   std::vector<Volume> out;
   const Volume* src = &base;
   while (src->dims().x > 1 || src->dims().y > 1 || src->dims().z > 1) {
@@ -65,7 +65,7 @@ std::vector<Volume> derive_levels(const Volume& base, bool labels) {
     d.spacing *= 2.0f;
     Volume dst(d, "pyramid");
     parallel_for(0, d.dims.z, [&](int lo, int hi) {
-      (labels ? reduce_mode : reduce_mean)(src->type(), src->data(), src->dims(), dst.data(), lo, hi);
+      reduce(src->type(), src->data(), src->dims(), dst.data(), lo, hi);
     });
     out.push_back(std::move(dst));
     src = &out.back();

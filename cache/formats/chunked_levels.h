@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "cache/brick.h"
+#include "cache/pyramid.h"
 
 #include "core/scene/volume.h"
 #include "core/util/math.h"
@@ -33,8 +34,9 @@ void copy_clamped(const Volume& v, ivec3 first, ivec3 n, std::byte* dst);
 // Largest coarsest stored level that levels are derived from (in memory, at construction of a source).
 inline constexpr std::uint64_t kMaxDerivedBaseBytes = std::uint64_t(512) << 20;
 
-// Derived levels: 2x reductions of `base` until 1³ (mode for labels, mean otherwise).
-std::vector<Volume> derive_levels(const Volume& base, bool labels);
+// Derived levels: 2x reductions of `base` by `reduce` (pyramid.h: reduce_mode for labels, the intensity
+// pyramid's reduction otherwise) until 1³.
+std::vector<Volume> derive_levels(const Volume& base, ReduceFn reduce);
 
 // Reads level voxels [first, first + n) of a store's own level into dst (x fastest).
 using ReadLevelBox = std::function<void(int level, ivec3 first, ivec3 n, std::byte* dst)>;

@@ -28,14 +28,19 @@ struct LayerBuffer {
   int z0 = 0;             // level z of the first held plane
 };
 
+// One pyramid of the store, level by level. The max pyramid starts at level 1: it is fed the image's
+// level-0 layers (`max_from_level0`) and keeps no level-0 buffer of its own.
 class PyramidBuilder {
  public:
-  PyramidBuilder(zarr::StoreWriter& w, bool labels, VoxelType t) : w_(w), labels_(labels), type_(t) {
+  PyramidBuilder(zarr::StoreWriter& w, zarr::Target target, VoxelType t, PyramidBuilder* max = nullptr)
+      : w_(w), target_(target), type_(t), max_(max) {
     const int C = w.options().chunk;
     for (int l = 0; l < w.options().levels; ++l) {
       LayerBuffer b;
       b.dims = w.level_dims(l);
-      b.data.resize(std::size_t(b.dims.x) * std::size_t(b.dims.y) * std::size_t(C) * std::size_t(voxel_size(t)));
+      if (l > 0 || target != zarr::Target::Max) {
+        b.data.resize(std::size_t(b.dims.x) * std::size_t(b.dims.y) * std::size_t(C) * std::size_t(voxel_size(t)));
+      }
       levels_.push_back(std::move(b));
     }
   }
@@ -62,28 +67,35 @@ class PyramidBuilder {
     const int C = w_.options().chunk;
     LayerBuffer& b = levels_[std::size_t(l)];
     if (b.filled < C && !final && b.z0 + b.filled < b.dims.z) return;
-    w_.write_slab(labels_, l, b.z0, b.filled, b.data.data());
-    if (std::size_t(l) + 1 < levels_.size()) {
-      // Each layer starts at an even z (C is even), so it reduces on its own into ceil(filled / 2)
-      // planes of the next level.
-      LayerBuffer& n = levels_[std::size_t(l) + 1];
-      const int out = (b.filled + 1) / 2;
-      std::byte* dst = n.data.data() + std::size_t(n.filled) * plane_bytes(l + 1);
-      const ivec3 sd(b.dims.x, b.dims.y, b.filled);
-      parallel_for(0, out, [&](int lo, int hi) {
-        (labels_ ? reduce_mode : reduce_mean)(type_, b.data.data(), sd, dst, lo, hi);
-      });
-      n.filled += out;
-      SL_CHECK(n.filled <= C);
-      if (n.filled == C || n.z0 + n.filled == n.dims.z) flush(l + 1, false);
-    }
+    w_.write_slab(target_, l, b.z0, b.filled, b.data.data());
+    if (l == 0 && max_) max_->reduce_into(1, b);
+    if (std::size_t(l) + 1 < levels_.size()) reduce_into(l + 1, b);
     b.z0 += b.filled;
     b.filled = 0;
   }
+  // Reduces the layer `b` of level l - 1 (of this pyramid, or the image's level 0 for the max one)
+  // into level l. Each layer starts at an even z (C is even), so it reduces on its own into
+  // ceil(filled / 2) planes of the next level.
+  void reduce_into(int l, const LayerBuffer& b) {
+    const int C = w_.options().chunk;
+    const ReduceFn reduce = target_ == zarr::Target::Labels ? reduce_mode
+                                                            : intensity_reduction(target_ == zarr::Target::Max
+                                                                                      ? PyramidKind::Max
+                                                                                      : PyramidKind::Mean);
+    LayerBuffer& n = levels_[std::size_t(l)];
+    const int out = (b.filled + 1) / 2;
+    std::byte* dst = n.data.data() + std::size_t(n.filled) * plane_bytes(l);
+    const ivec3 sd(b.dims.x, b.dims.y, b.filled);
+    parallel_for(0, out, [&](int lo, int hi) { reduce(type_, b.data.data(), sd, dst, lo, hi); });
+    n.filled += out;
+    SL_CHECK(n.filled <= C);
+    if (n.filled == C || n.z0 + n.filled == n.dims.z) flush(l, false);
+  }
 
   zarr::StoreWriter& w_;
-  bool labels_;
+  zarr::Target target_;
   VoxelType type_;
+  PyramidBuilder* max_;  // fed this pyramid's level-0 layers
   std::vector<LayerBuffer> levels_;
 };
 
@@ -170,9 +182,11 @@ struct Destination {
 // Reads the inputs slab by slab into the store's pyramids; fills r's byte counts and largest label.
 void write_store(zarr::StoreWriter& w, SlabReader& image, SlabReader* labels, const IngestOptions& o, IngestResult& r) {
   const VolumeDesc& desc = r.desc;
-  PyramidBuilder pi(w, false, desc.type);
+  std::optional<PyramidBuilder> pm;
+  if (w.has_max_levels()) pm.emplace(w, zarr::Target::Max, desc.type);
+  PyramidBuilder pi(w, zarr::Target::Image, desc.type, pm ? &*pm : nullptr);
   std::optional<PyramidBuilder> pl;
-  if (labels) pl.emplace(w, true, labels->desc().type);
+  if (labels) pl.emplace(w, zarr::Target::Labels, labels->desc().type);
   const std::uint64_t plane = std::uint64_t(desc.dims.x) * std::uint64_t(desc.dims.y);
   const std::uint64_t total = desc.byte_size() + (labels ? labels->desc().byte_size() : 0);
   for (int z0 = 0; z0 < desc.dims.z; z0 += o.chunk) {
@@ -189,7 +203,8 @@ void write_store(zarr::StoreWriter& w, SlabReader& image, SlabReader* labels, co
     }
     if (o.progress) o.progress(r.input_bytes, total);
   }
-  pi.finish();
+  pi.finish();  // its level 0's last layer feeds the max pyramid first
+  if (pm) pm->finish();
   if (pl) {
     pl->finish();
     w.set_max_label(r.max_label);
@@ -210,16 +225,19 @@ int ingest_levels(ivec3 dims, int chunk) {
 
 std::uint64_t memory_bound(const VolumeDesc& d, std::optional<VoxelType> label_type, int chunk, int shard) {
   const int levels = ingest_levels(d.dims, chunk);
-  std::uint64_t per_voxel_layers = 0;  // voxels in all layer buffers
+  std::uint64_t per_voxel_layers = 0;  // voxels in all layer buffers of one pyramid
+  std::uint64_t max_layers = 0;        // the max pyramid's: levels >= 1
   ivec3 dims = d.dims;
   for (int l = 0; l < levels; ++l, dims = (dims + 1) / 2) {
     per_voxel_layers += std::uint64_t(dims.x) * std::uint64_t(dims.y) * std::uint64_t(chunk);
+    if (l > 0) max_layers += std::uint64_t(dims.x) * std::uint64_t(dims.y) * std::uint64_t(chunk);
   }
   const std::uint64_t chunk_voxels = std::uint64_t(chunk) * std::uint64_t(chunk) * std::uint64_t(chunk);
   const std::uint64_t threads = std::uint64_t(std::max(1, tbb::info::default_concurrency()));
   // A sharded level holds up to `shard` chunk layers of encoded chunks until its shard layer is complete.
   per_voxel_layers *= std::uint64_t(1 + shard);
-  std::uint64_t b = per_voxel_layers * std::uint64_t(voxel_size(d.type)) +
+  max_layers *= std::uint64_t(1 + shard);
+  std::uint64_t b = (per_voxel_layers + max_layers) * std::uint64_t(voxel_size(d.type)) +
                     2 * threads * chunk_voxels * std::uint64_t(voxel_size(d.type));  // chunk + encoded copy
   if (label_type) {
     b += per_voxel_layers * std::uint64_t(voxel_size(*label_type)) +
@@ -255,6 +273,7 @@ IngestResult ingest(const std::string& in, const std::string& out, const IngestO
     wo.levels = r.levels;
     wo.zarr_format = o.zarr_format;
     wo.shard = o.shard;
+    wo.max_levels = true;
     if (labels) wo.label_type = labels->desc().type;
     zarr::StoreWriter w(tmp, out, desc, wo);
     write_store(w, *image, labels.get(), o, r);

@@ -1,13 +1,14 @@
 // `sparseleap ingest`: converting a volume file (NRRD, a TIFF stack, NIfTI; volume_file.h) into an
-// OME-Zarr store (zarr/writer.h) with the full 2x pyramid of DESIGN.md "Data model", slab by slab, so
-// memory stays bounded however deep the input is.
+// OME-Zarr store (zarr/writer.h) with the full 2x pyramid of DESIGN.md "Data model" and the max pyramid
+// beside it (pyramid.h PyramidKind), slab by slab, so memory stays bounded however deep the input is.
 //
 // The input is read one chunk layer (chunk-edge z-planes) at a time. Level l keeps one layer buffer of
 // its own; a full layer is written as chunks and reduced 2x into the next level's buffer (which fills
 // after two such layers). Peak memory is therefore about
 //   (4/3) * chunk * X * Y * bytes_per_voxel      (+ the same for labels, with their voxel size)
-// plus one chunk per worker thread for encoding: memory_bound() computes it. It depends on the slice
-// size X * Y and the chunk edge, never on the depth Z.
+// plus (1/3) * chunk * X * Y * bytes_per_voxel for the max pyramid's levels >= 1 and one chunk per
+// worker thread for encoding: memory_bound() computes it. It depends on the slice size X * Y and the
+// chunk edge, never on the depth Z.
 // Levels continue until one chunk holds the level; readers derive coarser ones (zarr/source.h).
 #pragma once
 

@@ -66,10 +66,11 @@ struct Accumulator {
   int s;  // level voxel edge in level-0 voxels
   ivec3 first, n, dims0;
   std::vector<std::uint64_t> mass, votes;
+  std::vector<std::uint32_t> peak;  // the max pyramid: the brightest tube centre in each voxel
 
   Accumulator(int level, ivec3 f, ivec3 count, ivec3 d0)
       : s(1 << level), first(f), n(count), dims0(d0),
-        mass(std::size_t(count.x) * count.y * count.z, 0), votes(mass.size(), 0) {}
+        mass(std::size_t(count.x) * count.y * count.z, 0), votes(mass.size(), 0), peak(mass.size(), 0) {}
 
   // Index of the region voxel holding level-0 point q, or -1 (outside the region or the volume).
   std::int64_t index(const vec3& q) const {
@@ -81,9 +82,31 @@ struct Accumulator {
     if (v.x < 0 || v.y < 0 || v.z < 0 || v.x >= n.x || v.y >= n.y || v.z >= n.z) return -1;
     return (std::int64_t(v.z) * n.y + v.y) * n.x + v.x;
   }
-  void add_mass(std::int64_t i, float m) {
+  // Mass of a tube piece whose centre line lies in voxel i, and its brightness for the max pyramid: a
+  // tube's core voxels have its brightness (tube_voxel; radii are >= 1), so the largest level-0 voxel
+  // below a coarse voxel is the brightest tube whose centre line passes through it.
+  void add(std::int64_t i, float m, float brightness) {
     std::atomic_ref<std::uint64_t>(mass[std::size_t(i)]).fetch_add(std::uint64_t(std::llround(m * kFixed)),
                                                                   std::memory_order_relaxed);
+    add_peak(i, brightness);
+  }
+  // The max pyramid where a tube's radius r is known: every voxel its core (within r of the centre
+  // line) reaches at centre-line point q, including voxels the centre line itself never enters.
+  void add_peak_around(const vec3& q, float r, float brightness) {
+    const vec3 lo = glm::max(q - r, vec3(0.0f)), hi = glm::min(q + r, vec3(dims0) - 1e-3f);
+    if (glm::any(glm::greaterThan(lo, hi))) return;
+    const ivec3 a = glm::max(ivec3(glm::floor(lo)) / s - first, ivec3(0));
+    const ivec3 b = glm::min(ivec3(glm::floor(hi)) / s - first, n - 1);
+    for (int z = a.z; z <= b.z; ++z)
+      for (int y = a.y; y <= b.y; ++y)
+        for (int x = a.x; x <= b.x; ++x) add_peak((std::int64_t(z) * n.y + y) * n.x + x, brightness);
+  }
+  void add_peak(std::int64_t i, float brightness) {
+    const std::uint32_t b = std::uint32_t(std::min(255.0f, std::floor(brightness + 0.5f)));
+    std::atomic_ref<std::uint32_t> r(peak[std::size_t(i)]);
+    std::uint32_t cur = r.load(std::memory_order_relaxed);
+    while (b > cur && !r.compare_exchange_weak(cur, b, std::memory_order_relaxed)) {
+    }
   }
   // A path's labelled volume is merged over consecutive samples in one voxel before it votes.
   struct Run {
@@ -100,8 +123,9 @@ struct Accumulator {
     run = Run{};
   }
 
-  // Mean over the level-0 voxels each region voxel covers inside the volume (odd edges: what exists).
-  void finish(std::uint8_t* intensity, std::uint32_t* labels) const {
+  // Mean over the level-0 voxels each region voxel covers inside the volume (odd edges: what exists),
+  // or the peak for the max pyramid.
+  void finish(PyramidKind pyramid, std::uint8_t* intensity, std::uint32_t* labels) const {
     for (int z = 0; z < n.z; ++z) {
       for (int y = 0; y < n.y; ++y) {
         for (int x = 0; x < n.x; ++x) {
@@ -109,7 +133,8 @@ struct Accumulator {
           const double count = double(hi.x - lo.x) * double(hi.y - lo.y) * double(hi.z - lo.z);
           const std::size_t i = (std::size_t(z) * n.y + y) * n.x + x;
           const double mean = double(mass[i]) / kFixed / count;
-          intensity[i] = std::uint8_t(std::min(255.0, std::floor(mean + 0.5)));
+          intensity[i] = pyramid == PyramidKind::Max ? std::uint8_t(peak[i])
+                                                     : std::uint8_t(std::min(255.0, std::floor(mean + 0.5)));
           labels[i] = std::uint32_t(votes[i] & 0xFFFFFFFFu);
         }
       }
@@ -210,9 +235,9 @@ struct Slab {
 
 // The level-l voxels [first, first + n): their level-0 voxels synthesised slab by slab (one level-l
 // slice each), every slab reduced 2x per level with pyramid.h — the MemoryVolumeSource definition, so
-// identical to its pyramid of the same level-0 data.
-void synthesize_and_reduce(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i,
-                           std::uint32_t* out_l) {
+// identical to its pyramid (mean or max) of the same level-0 data.
+void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec3 first, ivec3 n,
+                           std::uint8_t* out_i, std::uint32_t* out_l) {
   const int s = 1 << level;
   const ivec3 lo0 = first * s, hi0 = glm::min((first + n) * s, p.dims) - 1;  // inclusive level-0 box
   const std::vector<Capsule> caps = capsules_near(p, lo0, hi0);
@@ -244,7 +269,7 @@ void synthesize_and_reduce(const Params& p, int level, ivec3 first, ivec3 n, std
       const ivec3 h = (d + 1) / 2;
       ti.resize(std::size_t(h.x) * h.y * h.z);
       tl.resize(ti.size() * 4);
-      reduce_mean(VoxelType::U8, ri.data(), d, ti.data(), 0, h.z);
+      intensity_reduction(pyramid)(VoxelType::U8, ri.data(), d, ti.data(), 0, h.z);
       reduce_mode(VoxelType::U32, rl.data(), d, tl.data(), 0, h.z);
       std::swap(ri, ti);
       std::swap(rl, tl);
@@ -269,7 +294,9 @@ void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float d
     // Sample centres on the global grid (k + 0.5) * ds: the same samples whichever brick asks.
     for (std::int64_t k = std::int64_t(std::floor(t_lo / ds)); (float(k) + 0.5f) * ds < t_hi; ++k) {
       const float t = (float(k) + 0.5f) * ds;
-      const std::int64_t i = acc.index(per_sample ? fibre_at(f, t).p : fibre_centre(f, t));
+      const vec3 q = per_sample ? fibre_at(f, t).p : fibre_centre(f, t);
+      if (per_sample) acc.add_peak_around(q, fibre_at(f, t).r, f.brightness);
+      const std::int64_t i = acc.index(q);
       if (i < 0) {
         acc.flush(run, f.id);
         continue;
@@ -277,10 +304,10 @@ void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float d
       if (per_sample) {  // exact radius and arc length at this sample
         const PathNode at = fibre_at(f, t);
         const float arc = glm::length(at.d) * ds;
-        acc.add_mass(i, f.brightness * cross_section(at.r) * arc);
+        acc.add(i, f.brightness * cross_section(at.r) * arc, f.brightness);
         acc.add_core(run, i, kPi * at.r * at.r * arc, f.id);
       } else {  // coarse: the fibre's mean line density
-        acc.add_mass(i, f.line_mass * ds);
+        acc.add(i, f.line_mass * ds, f.brightness);
         acc.add_core(run, i, f.line_core * ds, f.id);
       }
     }
@@ -288,7 +315,7 @@ void splat_fibres(const Params& p, Accumulator& acc, vec3 lo0, vec3 hi0, float d
   });
 }
 
-void path_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
+void path_splat(const Params& p, PyramidKind pyramid, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
   const int s = 1 << level;
   Accumulator acc(level, first, n, p.dims);
   const vec3 lo0(first * s), hi0(glm::min((first + n) * s, p.dims));
@@ -303,25 +330,27 @@ void path_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* 
       Accumulator::Run run;
       for (std::uint32_t k = path.begin + 1; k < path.end; ++k) {
         const PathNode &a = paths.nodes[k - 1], &b = paths.nodes[k];
-        const std::int64_t i = acc.index(0.5f * (a.p + b.p));
+        const vec3 mid = 0.5f * (a.p + b.p);
+        const float r = 0.5f * (a.r + b.r), len = glm::distance(a.p, b.p);
+        acc.add_peak_around(mid, r, path.brightness);
+        const std::int64_t i = acc.index(mid);
         if (i < 0) {
           acc.flush(run, path.id);
           continue;
         }
-        const float r = 0.5f * (a.r + b.r), len = glm::distance(a.p, b.p);
-        acc.add_mass(i, path.brightness * cross_section(r) * len);
+        acc.add(i, path.brightness * cross_section(r) * len, path.brightness);
         acc.add_core(run, i, kPi * r * r * len, path.id);
       }
       acc.flush(run, path.id);
     }
   });
   splat_fibres(p, acc, lo0, hi0, std::max(kStep, float(s) / 8.0f), true);
-  acc.finish(out_i, out_l);
+  acc.finish(pyramid, out_i, out_l);
 }
 
 // ---- LineSplat and CellSum: tubes from their hashes, without walking -------------------------------
 
-void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
+void hashed_splat(const Params& p, PyramidKind pyramid, int level, ivec3 first, ivec3 n, std::uint8_t* out_i, std::uint32_t* out_l) {
   const int s = 1 << level;
   Accumulator acc(level, first, n, p.dims);
   const vec3 lo0(first * s), hi0(glm::min((first + n) * s, p.dims));
@@ -346,7 +375,7 @@ void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t
             acc.flush(run, t.id);
             continue;
           }
-          acc.add_mass(i, t.mass * w);
+          acc.add(i, t.mass * w, t.brightness);
           acc.add_core(run, i, t.core * w, t.id);
         }
         acc.flush(run, t.id);
@@ -366,28 +395,32 @@ void hashed_splat(const Params& p, int level, ivec3 first, ivec3 n, std::uint8_t
         const double scale = double(cells.x) * cells.y * cells.z / (double(samples.x) * samples.y * samples.z);
         const auto at = [&](int a, int j) { return c0[a] + std::min(j * stride + stride / 2, cells[a] - 1); };
         double mass = 0.0;
+        float peak = 0.0f;
         std::uint64_t best = 0;
         for (int j = 0; j < samples.z; ++j)
           for (int i = 0; i < samples.y; ++i)
             for (int h = 0; h < samples.x; ++h) {
               const CellSummary cs = cell_summary(p, ivec3(at(0, h), at(1, i), at(2, j)));
               mass += double(cs.mass) * scale;
+              peak = std::max(peak, cs.peak);
               if (cs.top_id) best = std::max(best, pack_vote(cs.top_core, cs.top_id));
             }
         const std::size_t i = (std::size_t(z) * n.y + y) * n.x + x;
         acc.mass[i] = std::uint64_t(std::llround(mass * kFixed));  // this thread owns row `row`
         acc.votes[i] = best;
+        acc.add_peak(std::int64_t(i), peak);
       }
     });
   }
   splat_fibres(p, acc, lo0, hi0, float(s), false);  // one sample per voxel length
-  acc.finish(out_i, out_l);
+  acc.finish(pyramid, out_i, out_l);
 }
 
 }  // namespace
 
-ProceduralNeuritesSource::ProceduralNeuritesSource(ivec3 dims, std::uint32_t seed, std::string name)
-    : seed_(seed), name_(std::move(name)) {
+ProceduralNeuritesSource::ProceduralNeuritesSource(ivec3 dims, std::uint32_t seed, std::string name,
+                                                   PyramidKind pyramid)
+    : seed_(seed), name_(std::move(name)), pyramid_(pyramid) {
   for (int a = 0; a < 3; ++a) {
     if (dims[a] <= 0) throw InputError(name_, "dimensions must be positive");
   }
@@ -406,10 +439,10 @@ void ProceduralNeuritesSource::synthesize(int level, ivec3 first, ivec3 n, std::
                                           std::uint32_t* labels) const {
   const Params p = params_of(desc_, seed_);
   switch (method(level)) {
-    case Method::Exact: synthesize_and_reduce(p, level, first, n, intensity, labels); break;
-    case Method::PathSplat: path_splat(p, level, first, n, intensity, labels); break;
+    case Method::Exact: synthesize_and_reduce(p, pyramid_, level, first, n, intensity, labels); break;
+    case Method::PathSplat: path_splat(p, pyramid_, level, first, n, intensity, labels); break;
     case Method::LineSplat:
-    case Method::CellSum: hashed_splat(p, level, first, n, intensity, labels); break;
+    case Method::CellSum: hashed_splat(p, pyramid_, level, first, n, intensity, labels); break;
   }
 }
 
@@ -468,7 +501,7 @@ bool ProceduralNeuritesSource::bound_blocks(const BrickLayout& layout, int level
 
 bool is_procedural_spec(const std::string& spec) { return spec.rfind("procedural:", 0) == 0; }
 
-std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec) {
+std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec, PyramidKind pyramid) {
   const auto fail = [&](const std::string& why) -> std::unique_ptr<VolumeSource> {
     throw InputError(spec, why + " (expected procedural:neurites:XxYxZ[:seed], e.g. procedural:neurites:32768x32768x8192)");
   };
@@ -499,7 +532,7 @@ std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec) {
   }
   std::uint32_t seed = 1;
   if (colon != std::string::npos) seed = std::uint32_t(number(rest.substr(colon + 1), 0xFFFFFFFFull, "seed"));
-  return std::make_unique<ProceduralNeuritesSource>(dims, seed, spec);
+  return std::make_unique<ProceduralNeuritesSource>(dims, seed, spec, pyramid);
 }
 
 }  // namespace sl

@@ -21,6 +21,15 @@
 // Fibres are sampled along their exact curves at every level (coarsely on the coarse ones). Mass is
 // accumulated in 1/256 fixed point, so parallel accumulation is deterministic.
 //
+// The max pyramid (PyramidKind::Max, pyramid.h) by the same methods: the exact levels reduce with
+// reduce_max, so they equal MemoryVolumeSource's max pyramid; the splatted levels take, per voxel, the
+// brightness of the brightest tube reaching it (a tube's core voxels have its brightness): on the
+// PathSplat levels every voxel within a tube's radius of its walked centre line, on the coarser ones
+// the voxels its stand-in segment or fibre samples fall in, on the CellSum levels over the same subset
+// of cells as the mass. Like the splatted mean this approximates the reduction (halos, and on the
+// hashed levels the stand-in's offset from the walked path), but no tube is lost: some voxel of every
+// level gets its brightness.
+//
 // Culling bounds (bound_blocks, DESIGN.md "Virtual memory"): on the exact levels 1-2, from the level-0
 // voxels below each block (synthesised as read_brick does); on the splatted levels >= 3, whose voxels
 // span 8+ level-0 voxels and whose blocks (128+ voxels across) all hold tubes, the whole u8 range
@@ -38,8 +47,10 @@ class ProceduralNeuritesSource final : public VolumeSource {
  public:
   enum class Method { Exact, PathSplat, LineSplat, CellSum };
 
-  // Throws InputError(name, ...) when dims are not positive.
-  ProceduralNeuritesSource(ivec3 dims, std::uint32_t seed = 1, std::string name = "procedural:neurites");
+  // Throws InputError(name, ...) when dims are not positive. `pyramid` picks the intensity of levels
+  // >= 1 (labels are the same for both).
+  ProceduralNeuritesSource(ivec3 dims, std::uint32_t seed = 1, std::string name = "procedural:neurites",
+                           PyramidKind pyramid = PyramidKind::Mean);
 
   const VolumeDesc& desc() const override { return desc_; }
   bool has_labels() const override { return true; }
@@ -49,6 +60,7 @@ class ProceduralNeuritesSource final : public VolumeSource {
                   std::span<std::byte> out_labels) const override;
   bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
                     std::span<BlockMetadata> out) const override;
+  PyramidKind pyramid() const override { return pyramid_; }
 
   std::uint32_t seed() const { return seed_; }
   static Method method(int level);
@@ -61,11 +73,12 @@ class ProceduralNeuritesSource final : public VolumeSource {
   VolumeDesc desc_;
   std::uint32_t seed_;
   std::string name_;
+  PyramidKind pyramid_;
 };
 
 // "procedural:neurites:XxYxZ[:seed]" -> a ProceduralNeuritesSource. Throws InputError(spec, reason)
 // for anything else or bad numbers.
-std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec);
+std::unique_ptr<VolumeSource> parse_volume_spec(const std::string& spec, PyramidKind pyramid = PyramidKind::Mean);
 // True when `spec` names a procedural source (starts with "procedural:"), not a file.
 bool is_procedural_spec(const std::string& spec);
 

@@ -169,8 +169,10 @@ CellSummary cell_summary(const Params& p, ivec3 c) {
   std::uint32_t top = 0;
   for (std::uint32_t i = 0; i < n; ++i) {
     float mass, core;
-    tube_mass(tube_params(tube_hash(key, i)), mass, core);
+    const TubeParams t = tube_params(tube_hash(key, i));
+    tube_mass(t, mass, core);
     s.mass += mass;
+    s.peak = std::max(s.peak, t.brightness);
     if (core >= s.top_core) {  // ties go to the later tube, which has the larger id
       s.top_core = core;
       top = i;
@@ -191,6 +193,7 @@ void cell_tube_masses(const Params& p, ivec3 c, std::vector<TubeMass>& out) {
     const TubeParams t = tube_params(h);
     TubeMass m;
     tube_mass(t, m.mass, m.core);
+    m.brightness = t.brightness;
     m.id = tube_id(base, i);
     // The first draws of the path's own stream: its start and initial direction (as cell_paths).
     SplitMix64 rng = keyed_rng(h ^ 0x632BE59BD9B4E019ull);

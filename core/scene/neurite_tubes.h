@@ -94,6 +94,7 @@ void cell_paths(const Params& p, ivec3 cell, PathSet& out);
 // hashes per tube, so coarse levels covering millions of cells stay cheap.
 struct CellSummary {
   float mass = 0.0f;
+  float peak = 0.0f;  // the brightest tube's brightness: the largest intensity a voxel of the cell gets
   float top_core = 0.0f;
   std::uint32_t top_id = 0;
 };
@@ -105,6 +106,7 @@ CellSummary cell_summary(const Params& p, ivec3 cell);
 struct TubeMass {
   vec3 a, b;
   float mass, core;
+  float brightness;
   std::uint32_t id;
 };
 void cell_tube_masses(const Params& p, ivec3 cell, std::vector<TubeMass>& out);

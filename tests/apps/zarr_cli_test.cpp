@@ -55,15 +55,23 @@ TEST_F(ZarrCli, IngestInfoAndRenderMatchTheNrrd) {
   EXPECT_EQ(read_exr(p("z") + ".exr").rgba, read_exr(p("n") + ".exr").rgba);
 
   // Out of core: bricks stream from the store's chunks; converged, it equals the NRRD streamed from
-  // memory (the store's pyramid is MemoryVolumeSource's).
+  // memory with the same pyramid (the store's pyramids are MemoryVolumeSource's).
   const std::string ooc = " --backend cpu --size 48x40 --cache-mb 16 --brick 16 --frames 20";
   r = test::run_sparseleap("render" + ooc + " --volume " + p("n.zarr") + " --out " + p("zo") + " --stats-json " + p("zo.json"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("out of core"), std::string::npos) << r.output;
   EXPECT_EQ(test::read_text(dir / "zo.json").find("\"converged_at_frame\": -1"), std::string::npos);
-  r = test::run_sparseleap("render" + ooc + " --volume " + p("n.nrrd") + " --out " + p("no"));
+  r = test::run_sparseleap("render" + ooc + " --volume " + p("n.nrrd") + " --pyramid max --out " + p("no"));
   ASSERT_EQ(r.exit_code, 0) << r.output;
+  // The store's max levels are what it shows by default (docs/out-of-core.md "Mean or max pyramid").
   EXPECT_EQ(read_exr(p("zo") + ".exr").rgba, read_exr(p("no") + ".exr").rgba);
+  for (const char* what : {"zm", "nm"}) {
+    const std::string in = what[0] == 'z' ? p("n.zarr") : p("n.nrrd");
+    r = test::run_sparseleap("render" + ooc + " --volume " + in + " --pyramid mean --out " + p(what));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+  }
+  EXPECT_EQ(read_exr(p("zm") + ".exr").rgba, read_exr(p("nm") + ".exr").rgba);
+  EXPECT_NE(read_exr(p("zm") + ".exr").rgba, read_exr(p("zo") + ".exr").rgba) << "the 48x40 view uses coarse levels";
 
   // Labels from the store's labels/ group (out of core needs --enable for labels mode).
   r = test::run_sparseleap("render" + ooc + " --mode labels --enable all --volume " + p("n.zarr") + " --out " + p("zl"));

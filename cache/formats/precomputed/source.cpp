@@ -182,8 +182,8 @@ PrecomputedVolumeSource::PrecomputedVolumeSource(std::shared_ptr<const ByteStore
         d, r.info().scales[std::size_t(c)].chunk,
         [&](ivec3 first, ivec3 n, std::byte* dst) { r.read_box(c, first, n, dst); }, r.name());
   };
-  derived_ = derive_levels(base(*image_), false);
-  if (labels_) derived_labels_ = derive_levels(base(*labels_), true);
+  derived_ = derive_levels(base(*image_), reduce_mean);
+  if (labels_) derived_labels_ = derive_levels(base(*labels_), reduce_mode);
 }
 
 void PrecomputedVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,

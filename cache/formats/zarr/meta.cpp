@@ -323,10 +323,35 @@ Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::st
   return m;
 }
 
+// The max pyramid the root's attributes declare (StoreInfo::max), checked against the image: its first
+// level must be the image's level 1 (dims halved, same type).
+std::optional<Multiscale> open_max_pyramid(const std::shared_ptr<const ByteStore>& bytes, const Multiscale& image,
+                                           const std::string& path) {
+  const bool v3 = image.levels[0].meta.v3 != nullptr;
+  const std::optional<json> node = read_json(*bytes, v3 ? "zarr.json" : ".zattrs", path, "");
+  if (!node || !node->is_object()) return std::nullopt;
+  const json& attrs = v3 ? node->value("attributes", json::object()) : *node;
+  if (!attrs.is_object() || !attrs.contains("sparseleap") || !attrs["sparseleap"].is_object() ||
+      !attrs["sparseleap"].contains("max_pyramid")) {
+    return std::nullopt;
+  }
+  const json& g = attrs["sparseleap"]["max_pyramid"];
+  if (!g.is_string() || g.get<std::string>().empty()) {
+    throw InputError(path, "\"sparseleap\": \"max_pyramid\" must name a group");
+  }
+  const std::string group = g.get<std::string>();
+  Multiscale m = open_multiscale(bytes, group + "/", path, group);
+  if (m.desc.dims != (image.desc.dims + 1) / 2 || m.desc.type != image.desc.type) {
+    throw InputError(path, "max pyramid '" + group + "' must start at the image's level 1 (half its dims, same type)");
+  }
+  return m;
+}
+
 StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
   StoreInfo s;
   s.path = path;
   s.image = open_multiscale(bytes, "", path, "");
+  s.max = open_max_pyramid(bytes, s.image, path);
   json j;
   if (const std::optional<json> node = read_json(*bytes, "labels/zarr.json", path, "group 'labels': ")) {
     // NGFF 0.5: the label names sit in the labels group's attributes.ome.

@@ -76,6 +76,9 @@ struct StoreInfo {
   Multiscale image;
   std::optional<Multiscale> labels;     // the first entry of labels/.zattrs "labels", if any
   std::vector<std::string> label_names; // every entry
+  // The max pyramid beside the mean one (docs/formats.md "Max levels"): levels 1, 2, ... of the image
+  // reduced by max, as the multiscale group the root's "sparseleap": {"max_pyramid": GROUP} names.
+  std::optional<Multiscale> max;
 };
 
 // Reads and checks all metadata of the store whose root is `bytes` (no chunk data). Every problem

@@ -25,10 +25,18 @@ std::string mib(std::uint64_t b) { return std::to_string((b + (1 << 19)) >> 20) 
 }  // namespace
 
 ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& labels_path,
-                                   std::size_t chunk_cache_bytes)
+                                   std::optional<PyramidKind> pyramid, std::size_t chunk_cache_bytes)
     : name_(path), cache_(std::make_shared<zarr::ChunkCache>(chunk_cache_bytes)) {
   zarr::StoreInfo info = zarr::open_store(path);
   image_ = std::make_unique<zarr::ArrayReader>(info.image, path, cache_);
+  // A store of one level has every max level by derivation; a deeper one needs them stored.
+  const bool has_max = info.max.has_value() || image_->levels() == 1;
+  pyramid_ = pyramid.value_or(has_max ? PyramidKind::Max : PyramidKind::Mean);
+  if (pyramid_ == PyramidKind::Max && !has_max) {
+    throw InputError(path, "has only mean levels, no max pyramid for --pyramid max (`sparseleap ingest` writes one; "
+                           "or use --pyramid mean)");
+  }
+  if (pyramid_ == PyramidKind::Max && info.max) max_ = std::make_unique<zarr::ArrayReader>(*info.max, path, cache_);
   std::string labels_store = path;
   if (!labels_path.empty()) {
     zarr::StoreInfo li = zarr::open_store(labels_path);
@@ -77,8 +85,8 @@ ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& l
     }
     return read_level(r, c, store);
   };
-  derived_ = derive_levels(base(*image_, path), false);
-  if (labels_) derived_labels_ = derive_levels(base(*labels_, labels_store), true);
+  derived_ = derive_levels(base(max_ ? *max_ : *image_, path), intensity_reduction(pyramid_));
+  if (labels_) derived_labels_ = derive_levels(base(*labels_, labels_store), reduce_mode);
 }
 
 void ZarrVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
@@ -88,7 +96,13 @@ void ZarrVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::sp
     const ReadLevelBox read = [&](int l, ivec3 first, ivec3 n, std::byte* dst) { r.read_box(l, first, n, dst); };
     read_chunked_brick(layout, id, r.levels(), r.type(), read, derived, out);
   };
-  one(*image_, derived_, out_intensity);
+  if (max_ && id.level() > 0) {
+    // The max group's level l - 1 is the image's level l.
+    const ReadLevelBox read = [&](int l, ivec3 first, ivec3 n, std::byte* dst) { max_->read_box(l - 1, first, n, dst); };
+    read_chunked_brick(layout, id, max_->levels() + 1, max_->type(), read, derived_, out_intensity);
+  } else {
+    one(*image_, derived_, out_intensity);
+  }
   if (!out_labels.empty()) one(*labels_, derived_labels_, out_labels);
 }
 

@@ -7,12 +7,15 @@
 // derived at construction from the coarsest stored level by the same 2x reductions MemoryVolumeSource
 // uses (cache/pyramid.h: mean for intensity, mode for labels) and kept in memory; this needs the coarsest
 // stored level to be at most kMaxDerivedBaseBytes (cache/formats/chunked_levels.h; stores written by
-// `sparseleap ingest` end at one chunk). Labels come from the store's NGFF labels/ group (its first label image) or from a separate
+// `sparseleap ingest` end at one chunk). The max pyramid (PyramidKind::Max) reads the store's max levels
+// (meta.h StoreInfo::max) and derives the ones past them by reduce_max the same way; a store of one
+// level derives all of them. Labels come from the store's NGFF labels/ group (its first label image) or from a separate
 // store given by path (its image array).
 #pragma once
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -24,8 +27,11 @@ namespace sl {
 class ZarrVolumeSource final : public VolumeSource {
  public:
   // Opens `path` and, when `labels_path` is not empty, that store's image as the labels (replacing the
-  // store's own labels/ group). Throws InputError for bad metadata or a coarsest level too large.
+  // store's own labels/ group). `pyramid`: the intensity pyramid to serve; nullopt = max when the
+  // store has max levels, mean otherwise (`--pyramid`'s default). Throws InputError for bad metadata, a coarsest level too large, or
+  // Max asked of a store without max levels.
   explicit ZarrVolumeSource(const std::string& path, const std::string& labels_path = "",
+                            std::optional<PyramidKind> pyramid = PyramidKind::Mean,
                             std::size_t chunk_cache_bytes = zarr::kDefaultChunkCacheBytes);
 
   const VolumeDesc& desc() const override { return image_->multiscale().desc; }
@@ -36,7 +42,10 @@ class ZarrVolumeSource final : public VolumeSource {
   void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                   std::span<std::byte> out_labels) const override;
 
+  PyramidKind pyramid() const override { return pyramid_; }
   int stored_levels() const { return image_->levels(); }
+  // Levels 1, 2, ... stored in the store's max pyramid (0 without one).
+  int stored_max_levels() const { return max_ ? max_->levels() : 0; }
   const zarr::ChunkCache& chunk_cache() const { return *cache_; }
   // Largest label id: the store's "sparseleap" attribute when `ingest` wrote it; otherwise a scan of
   // the finest stored label level of at most 256 MiB (exact when that is level 0). 0 without labels.
@@ -50,10 +59,13 @@ class ZarrVolumeSource final : public VolumeSource {
  private:
   std::string name_;
   std::shared_ptr<zarr::ChunkCache> cache_;
-  std::unique_ptr<zarr::ArrayReader> image_, labels_;
+  std::unique_ptr<zarr::ArrayReader> image_, labels_, max_;
+  PyramidKind pyramid_ = PyramidKind::Mean;
   std::uint32_t max_label_attr_ = 0;
   bool has_max_label_attr_ = false;
-  std::vector<Volume> derived_, derived_labels_;  // levels stored_levels() + i
+  // Levels past the stored ones: stored_levels() + i for the mean pyramid and labels, 1 +
+  // stored_max_levels() + i for the max pyramid (derived_ holds the served intensity pyramid's).
+  std::vector<Volume> derived_, derived_labels_;
 };
 
 // The whole of level 0 of a store's image (or of its first label image), for in-core rendering.

@@ -43,7 +43,12 @@ StoreWriter::StoreWriter(const fs::path& dir, std::string who, const VolumeDesc&
   }
   SL_CHECK(o_.zarr_format == 2 || o_.zarr_format == 3);
   SL_CHECK(o_.shard == 0 || o_.zarr_format == 3);
-  write_group(dir_, "image", false);
+  write_group(dir_, "image", Target::Image);
+  if (has_max_levels()) {
+    fs::create_directory(dir_ / "max", ec);
+    if (ec) throw InputError(who_, "cannot create '" + (dir_ / "max").string() + "': " + ec.message());
+    write_group(dir_ / "max", "max", Target::Max);
+  }
   if (o_.label_type) {
     fs::create_directory(dir_ / "labels", ec);
     if (o_.zarr_format == 3) {
@@ -56,7 +61,7 @@ StoreWriter::StoreWriter(const fs::path& dir, std::string who, const VolumeDesc&
     }
     fs::create_directory(dir_ / "labels" / "labels", ec);
     if (ec) throw InputError(who_, "cannot create '" + (dir_ / "labels").string() + "': " + ec.message());
-    write_group(dir_ / "labels" / "labels", "labels", true);
+    write_group(dir_ / "labels" / "labels", "labels", Target::Labels);
   }
 }
 
@@ -83,12 +88,21 @@ fs::path StoreWriter::attrs_file(const fs::path& group) const {
   return group / (o_.zarr_format == 3 ? "zarr.json" : ".zattrs");
 }
 
+fs::path StoreWriter::array_dir(Target target, int level) const {
+  const fs::path group = target == Target::Labels ? dir_ / "labels" / "labels" : target == Target::Max ? dir_ / "max" : dir_;
+  return group / std::to_string(level);
+}
+
 // One multiscale group: .zgroup, .zattrs (NGFF 0.4 multiscales: axes z, y, x in the spacing's unit-
-// less space, per-level scale = spacing * 2^l) and each level's .zarray.
-void StoreWriter::write_group(const fs::path& group, const std::string& name, bool labels) const {
+// less space, per-level scale = spacing * 2^l) and each level's .zarray. The max group lists levels
+// 1, 2, ... under their level numbers, so it is a multiscale image of its own (at half resolution)
+// that generic readers can open; the image's attributes name it for sparseleap.
+void StoreWriter::write_group(const fs::path& group, const std::string& name, Target target) const {
   const bool v3 = o_.zarr_format == 3;
+  const bool labels = target == Target::Labels;
+  const int first = target == Target::Max ? 1 : 0;
   json datasets = json::array();
-  for (int l = 0; l < o_.levels; ++l) {
+  for (int l = first; l < o_.levels; ++l) {
     const float f = float(1 << l);
     const json scale = {double(desc_.spacing.z * f), double(desc_.spacing.y * f), double(desc_.spacing.x * f)};
     datasets.push_back({{"path", std::to_string(l)},
@@ -99,21 +113,25 @@ void StoreWriter::write_group(const fs::path& group, const std::string& name, bo
                                    {{"name", "y"}, {"type", "space"}},
                                    {{"name", "x"}, {"type", "space"}}})},
              {"datasets", datasets},
-             {"type", labels ? "mode" : "mean"},
+             {"type", labels ? "mode" : target == Target::Max ? "max" : "mean"},
              {"metadata", {{"method", "sparseleap 2x reduction (DESIGN.md section 3)"}}}};
   // NGFF 0.4 versions each multiscale; 0.5 versions the "ome" object that holds them (zarr.json).
   if (!v3) ms["version"] = "0.4";
   json attrs = {{"multiscales", json::array({ms})}};
   if (labels) attrs["image-label"] = {{"version", v3 ? "0.5" : "0.4"}, {"source", {{"image", "../../"}}}};
+  // Outside the NGFF attributes (NGFF 0.5 reserves "ome"), as the label image's max_label.
+  const json ours = target == Target::Image && has_max_levels() ? json{{"max_pyramid", "max"}} : json();
   if (v3) {
     attrs["version"] = "0.5";
-    write_json(group / "zarr.json",
-               json{{"zarr_format", 3}, {"node_type", "group"}, {"attributes", {{"ome", attrs}}}}.dump(2));
+    json node = {{"zarr_format", 3}, {"node_type", "group"}, {"attributes", {{"ome", attrs}}}};
+    if (!ours.is_null()) node["attributes"]["sparseleap"] = ours;
+    write_json(group / "zarr.json", node.dump(2));
   } else {
+    if (!ours.is_null()) attrs["sparseleap"] = ours;
     write_json(group / ".zgroup", "{\n  \"zarr_format\": 2\n}");
     write_json(group / ".zattrs", attrs.dump(2));
   }
-  for (int l = 0; l < o_.levels; ++l) {
+  for (int l = first; l < o_.levels; ++l) {
     ArrayMeta m;
     const ivec3 d = level_dims(l);
     m.shape = {d.z, d.y, d.x};
@@ -154,14 +172,16 @@ void StoreWriter::set_max_label(std::uint32_t max_label) {
   write_json(p, attrs.dump(2));
 }
 
-void StoreWriter::write_slab(bool labels, int level, int z0, int nz, const std::byte* data) {
+void StoreWriter::write_slab(Target target, int level, int z0, int nz, const std::byte* data) {
+  const bool labels = target == Target::Labels;
   SL_CHECK(level >= 0 && level < o_.levels && (!labels || o_.label_type));
+  SL_CHECK(target != Target::Max || (level >= 1 && has_max_levels()));
   const ivec3 d = level_dims(level);
   const int C = o_.chunk;
   SL_CHECK(z0 % C == 0 && nz >= 1 && z0 + nz <= d.z && (nz == C || z0 + nz == d.z));
   const VoxelType t = labels ? *o_.label_type : desc_.type;
   const std::size_t elem = std::size_t(voxel_size(t));
-  const fs::path arr = (labels ? dir_ / "labels" / "labels" : dir_) / std::to_string(level);
+  const fs::path arr = array_dir(target, level);
   const int cz = z0 / C;
   const int ncx = (d.x + C - 1) / C, ncy = (d.y + C - 1) / C;
   // Chunk (or shard) files: v2 "z/y/x", v3 "c/z/y/x".
@@ -177,7 +197,7 @@ void StoreWriter::write_slab(bool labels, int level, int z0, int nz, const std::
   }
   std::vector<std::vector<std::optional<std::vector<std::byte>>>>* shards = nullptr;
   if (o_.shard > 0) {
-    shards = &pending_[{labels, level}];
+    shards = &pending_[{target, level}];
     if (cz % S == 0) shards->assign(std::size_t(nfx) * std::size_t(nfy), std::vector<std::optional<std::vector<std::byte>>>(std::size_t(S) * S * S));
   }
   parallel_for(0, ncx * ncy, [&](int i) {

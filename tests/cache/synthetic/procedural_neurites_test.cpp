@@ -145,6 +145,57 @@ TEST(ProceduralNeurites, ExactLevelsAreTheReductionOfLevelZero) {
   }
 }
 
+// The max pyramid's exact levels are the 2x max reduction of the level below, voxel for voxel (labels
+// as the mean pyramid's), and so keep every tube the mean fades.
+TEST(ProceduralNeurites, MaxLevelsAreTheMaxReductionOfTheirFinerLevel) {
+  const ProceduralNeuritesSource mean(ivec3(301, 257, 199), 3);
+  const ProceduralNeuritesSource max(ivec3(301, 257, 199), 3, "max", PyramidKind::Max);
+  EXPECT_EQ(max.pyramid(), PyramidKind::Max);
+  for (int level = 1; level <= 2; ++level) {
+    const ivec3 d = (max.desc().dims + (1 << level) - 1) >> level;
+    const ivec3 dc = (max.desc().dims + (1 << (level - 1)) - 1) >> (level - 1);
+    const Region fine = region(max, level - 1, ivec3(0), dc);
+    const Region coarse = region(max, level, ivec3(0), d);
+    const Region coarse_mean = region(mean, level, ivec3(0), d);
+    std::vector<std::byte> v(coarse.v.size());
+    reduce_max(VoxelType::U8, reinterpret_cast<const std::byte*>(fine.v.data()), dc, v.data(), 0, d.z);
+    EXPECT_EQ(std::memcmp(v.data(), coarse.v.data(), v.size()), 0) << level;
+    EXPECT_EQ(coarse.l, coarse_mean.l) << level;
+    std::size_t bright_max = 0, bright_mean = 0;
+    for (std::size_t i = 0; i < coarse.v.size(); ++i) {
+      bright_max += coarse.v[i] >= 128;
+      bright_mean += coarse_mean.v[i] >= 128;
+    }
+    EXPECT_GT(bright_max, bright_mean) << level;
+  }
+}
+
+// The splatted max levels: a coarse voxel over a tube core (a child >= 128 in the level below) is
+// itself bright, as the max reduction would make it: on the walked levels (3-4) all but a few (halos),
+// on the hashed ones most (their stand-in segments lie off the walked paths the level below shows).
+TEST(ProceduralNeurites, SplattedMaxLevelsKeepTubesVisible) {
+  const ProceduralNeuritesSource src(kHuge, 1, "max", PyramidKind::Max);
+  const BrickLayout layout = BrickLayout::make(src.desc());
+  for (int level = 3; level <= 7; ++level) {
+    const ivec3 d = layout.dims(level), n = glm::min(ivec3(24), d), f = (d - n) / 2;
+    const ivec3 nf = glm::min(n * 2, layout.dims(level - 1) - f * 2);
+    const Region coarse = region(src, level, f, n);
+    const Region fine = region(src, level - 1, f * 2, nf);
+    std::vector<std::byte> reduced(coarse.v.size());
+    reduce_max(VoxelType::U8, reinterpret_cast<const std::byte*>(fine.v.data()), nf, reduced.data(), 0, n.z);
+    std::size_t cores = 0, kept = 0;
+    for (std::size_t i = 0; i < reduced.size(); ++i) {
+      if (std::uint8_t(reduced[i]) < 128) continue;
+      ++cores;
+      kept += coarse.v[i] >= 128;
+    }
+    std::printf("[ procedural ] max level %d: %zu of %zu voxels over a core are bright\n", level, kept, cores);
+    EXPECT_GT(cores, 0u) << level;
+    const bool walked = ProceduralNeuritesSource::method(level) == Method::PathSplat;
+    EXPECT_GE(double(kept), (walked ? 0.99 : 0.7) * double(cores)) << level;
+  }
+}
+
 // A small odd-sized volume, whole: the procedural bricks of the exact levels equal those of a
 // MemoryVolumeSource built from its level-0 voxels, byte for byte (payload and clamped apron), and
 // every brick of every level reads without error.

@@ -35,7 +35,7 @@ TEST(ZarrConcurrentReads, ThreadsSharingASmallChunkCacheReadWhatOneThreadReads) 
     const std::string store = (dir / (std::to_string(format) + ".zarr")).string();
     ingest((dir / "v.nrrd").string(), store, o);
     // Six 8³ u8 chunks: far fewer than one brick with its apron touches (27), so every brick evicts.
-    const ZarrVolumeSource src(store, "", 6 * 8 * 8 * 8);
+    const ZarrVolumeSource src(store, "", PyramidKind::Mean, 6 * 8 * 8 * 8);
     ASSERT_TRUE(src.has_labels());
     const BrickLayout layout = BrickLayout::make(src.desc(), 8);
     std::vector<BrickId> ids;
