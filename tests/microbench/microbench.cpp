@@ -434,7 +434,8 @@ VirtualData& virtual_data() {
     v->layout = BrickLayout::make(v->source->desc(), 32);
     std::uint64_t bricks = 0;
     for (int l = 0; l < v->layout.levels; ++l) bricks += v->layout.brick_count(l);
-    const std::size_t slot_bytes = std::size_t(v->layout.stored_voxels()) * (1 + 2) + 128;
+    // u8 voxels, u16 labels and the voxel mask (a bit per voxel), each padded to 64 bytes.
+    const std::size_t slot_bytes = std::size_t(v->layout.stored_voxels()) * (1 + 2) + v->layout.stored_voxels() / 8 + 192;
     const std::size_t mb = std::size_t(bricks) * slot_bytes / (1u << 20) + 2;
     v->page_table = std::make_unique<PageTable>(v->layout);
     v->cache = std::make_unique<BrickCache>(v->layout, VoxelType::U8, VoxelType::U16, mb);
