@@ -25,11 +25,15 @@ std::chrono::milliseconds RetryPolicy::backoff(int attempt) const {
 }
 
 BrickLoader::BrickLoader(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, int threads,
-                         const RetryPolicy& retry)
+                         const RetryPolicy& retry, std::size_t finished_bytes)
     : source_(std::move(source)), layout_(layout), retry_(retry) {
   SL_CHECK(source_ != nullptr);
   SL_CHECK(retry_.max_attempts >= 1 && retry_.first_backoff.count() >= 0 && retry_.max_backoff >= retry_.first_backoff);
   if (threads <= 0) threads = int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
+  const std::size_t n = layout_.stored_voxels();
+  const std::size_t brick_bytes = n * std::size_t(voxel_size(source_->desc().type)) +
+                                  (source_->has_labels() ? n * std::size_t(voxel_size(source_->label_type())) : 0);
+  finished_cap_ = std::max(std::size_t(threads), finished_bytes / std::max<std::size_t>(brick_bytes, 1));
   workers_.reserve(std::size_t(threads));
   for (int i = 0; i < threads; ++i) workers_.emplace_back([this] { work(); });
 }
@@ -107,6 +111,7 @@ LoaderBatch BrickLoader::collect(std::size_t max_bricks) {
     batch.bricks.push_back(std::move(done_[i].brick));
   }
   done_.erase(done_.begin(), done_.begin() + std::ptrdiff_t(n));
+  wake_.notify_all();  // room under the bound of finished bricks
   return batch;
 }
 
@@ -119,7 +124,7 @@ std::size_t BrickLoader::cancel_queued() {
   queue_.clear();
   prefetch_queue_.clear();
   backoff_.clear();
-  if (loading_ == 0) idle_.notify_all();
+  if (settled()) idle_.notify_all();
   return n;
 }
 
@@ -157,7 +162,7 @@ LoaderCounts BrickLoader::counts() const {
 
 void BrickLoader::wait_idle() {
   std::unique_lock lock(mutex_);
-  idle_.wait(lock, [&] { return idle(); });
+  idle_.wait(lock, [&] { return settled(); });
 }
 
 void BrickLoader::promote_due_retries(Clock::time_point now) {
@@ -179,6 +184,10 @@ void BrickLoader::work() {
     for (;;) {
       if (stop_) return;
       promote_due_retries(Clock::now());
+      if (full() && (!queue_.empty() || !prefetch_queue_.empty())) {
+        wake_.wait(lock);  // until collect() takes finished bricks (or the loader stops)
+        continue;
+      }
       if (!queue_.empty()) break;
       if (!prefetch_queue_.empty()) {  // only when no request waits
         queue_.push_back(prefetch_queue_.front());
@@ -247,7 +256,7 @@ void BrickLoader::work() {
       if (job.attempt > 0) ++counts_.recovered;
       done_.push_back({job.seq, std::move(brick)});
     }
-    if (idle()) idle_.notify_all();
+    if (settled()) idle_.notify_all();
   }
 }
 

@@ -67,9 +67,15 @@ struct LoaderCounts {
 
 class BrickLoader {
  public:
-  // threads = 0: min(4, hardware threads).
+  // The buffers of finished bricks waiting to be collected are bounded (DESIGN.md "Virtual memory":
+  // memory within the budget): while they and the reads in flight hold this many bytes, no worker
+  // starts another read. Requests beyond it wait as ids, which cost bytes, not bricks.
+  static constexpr std::size_t kDefaultFinishedBytes = std::size_t(256) << 20;
+
+  // threads = 0: min(4, hardware threads). finished_bytes: the bound above (at least one brick per
+  // worker is always allowed).
   BrickLoader(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, int threads = 0,
-              const RetryPolicy& retry = {});
+              const RetryPolicy& retry = {}, std::size_t finished_bytes = kDefaultFinishedBytes);
   // Drops queued work and waiting retries (without waiting out their backoff), finishes reads in
   // flight, joins the workers.
   ~BrickLoader();
@@ -98,7 +104,10 @@ class BrickLoader {
   // Reads finished, successful or not (every attempt counts).
   std::uint64_t loads_completed() const;
   LoaderCounts counts() const;
-  // Blocks until nothing is queued, waiting for a retry or loading (tests and benchmarks only).
+  // Finished bricks the bound lets wait for collect() (and the reads in flight count against it).
+  std::size_t finished_capacity() const { return finished_cap_; }
+  // Blocks until nothing is queued, waiting for a retry or loading — or until the finished bricks
+  // fill their bound, so that only a collect() lets the loader go on.
   void wait_idle();
 
  private:
@@ -107,6 +116,8 @@ class BrickLoader {
   // Moves retries whose backoff has passed to the front of the queue (they are older requests).
   void promote_due_retries(Clock::time_point now);
   bool idle() const { return queue_.empty() && prefetch_queue_.empty() && backoff_.empty() && loading_ == 0; }
+  bool full() const { return done_.size() + loading_ >= finished_cap_; }
+  bool settled() const { return idle() || (loading_ == 0 && full()); }
 
   std::shared_ptr<const VolumeSource> source_;
   BrickLayout layout_;
@@ -136,6 +147,7 @@ class BrickLoader {
   std::vector<BrickFailure> new_failures_;
   std::vector<LoadedBrick> spare_;           // recycled buffers
   std::size_t loading_ = 0;
+  std::size_t finished_cap_ = 0;  // finished + loading bricks at most (finished_bytes / brick bytes)
   std::uint64_t completed_ = 0;
   LoaderCounts counts_;
   bool stop_ = false;

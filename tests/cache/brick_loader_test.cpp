@@ -109,6 +109,36 @@ TEST(BrickLoader, LoadsEveryBrickAsTheSourceReadsIt) {
   EXPECT_EQ(loader.collect(10).bricks.size(), 1u);
 }
 
+// The buffers of finished bricks waiting for collect() are bounded: the workers stop at the bound and
+// go on as bricks are collected; every brick still arrives, intact and in request order, and
+// wait_idle() returns at the bound instead of waiting for a collect that only its caller can make.
+TEST(BrickLoader, FinishedBricksStayWithinTheirBound) {
+  const auto src = neurites_source();
+  const BrickLayout layout = BrickLayout::make(src->desc(), 8);
+  const std::size_t brick_bytes = layout.stored_voxels() * (1 + voxel_size(src->label_type()));
+  BrickLoader loader(src, layout, 2, {}, 5 * brick_bytes);
+  EXPECT_EQ(loader.finished_capacity(), 5u);
+  const std::vector<BrickId> ids = all_bricks(layout);
+  ASSERT_GT(ids.size(), 20u);
+  loader.request(ids);
+  std::vector<BrickId> got;
+  for (int round = 0; got.size() < ids.size(); ++round) {
+    ASSERT_LT(round, 1000) << "the loader stopped short of the requests";
+    loader.wait_idle();
+    EXPECT_EQ(loader.pending(), ids.size() - got.size());  // the rest wait as ids
+    LoaderBatch batch = loader.collect(1000);
+    EXPECT_LE(batch.bricks.size(), 5u);
+    for (LoadedBrick& b : batch.bricks) {
+      std::vector<std::byte> v(b.intensity.size()), l(b.labels.size());
+      src->read_brick(layout, b.id, v, l);
+      EXPECT_EQ(b.intensity, v) << to_string(b.id);
+      got.push_back(b.id);
+    }
+  }
+  EXPECT_EQ(got, ids);
+  EXPECT_EQ(loader.pending(), 0u);
+}
+
 TEST(BrickLoader, CollectNeverWaitsForLoads) {
   const auto gated = std::make_shared<GatedSource>(neurites_source());
   const BrickLayout layout = BrickLayout::make(gated->desc(), 16);
