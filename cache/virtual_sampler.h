@@ -51,6 +51,12 @@ struct SampleShortfall {
   SL_HOST_DEVICE void count_left_out(std::uint64_t n) const {
     if (counters != nullptr && n != 0) add(2, n);
   }
+  // count() of many samples at once: `incomplete` not served at their level, `coarsened` finer by footprint.
+  SL_HOST_DEVICE void count_many(std::uint64_t incomplete, std::uint64_t coarsened) const {
+    if (counters == nullptr) return;
+    if (incomplete != 0) add(0, incomplete);
+    if (coarsened != 0) add(1, coarsened);
+  }
 
  private:
   SL_HOST_DEVICE void add(int which, std::uint64_t n = 1) const {
@@ -152,38 +158,83 @@ struct VirtualSampler {
 
   SL_HOST_DEVICE SL_INLINE float sample(const vec3& p, const SampleContext& c) const { return value(serve(p, c), p); }
 
-  // The fine cell (BrickCacheView::cells) of the wanted brick holding p, when that brick is resident and
-  // nothing about the samples in it is counted short (no pressure): kClear or kOccupied, and the ray
-  // parameter where the ray leaves the cell; kUnknown otherwise (the caller samples one by one).
-  enum CellState { kUnknown, kClear, kOccupied };
+  // What the samples from p on have in common until the ray leaves a box, t_exit (the caller leaps
+  // over them, or samples one by one on kUnknown):
+  // - kClear / kOccupied: the fine cell (BrickCacheView::cells) of the resident brick serving p (the
+  //   wanted one, or a resident ancestor's cell within the wanted brick) is clear (no sample in it can
+  //   contribute) or not;
+  // - kUniform: nothing is resident for p (neither the wanted brick nor an ancestor): every sample in
+  //   the wanted brick is served by the same page entry, the value `uniform` (a constant brick's, else 0).
+  enum CellState { kUnknown, kClear, kOccupied, kUniform };
   SL_HOST_DEVICE SL_INLINE CellState fine_cell(const Ray& ray, const vec3& inv_dir, const vec3& p,
-                                              const SampleContext& c, float& t_exit) const {
-    if (cache.cells == nullptr || shortfall.pressured) return kUnknown;
+                                              const SampleContext& c, float& t_exit, float& uniform) const {
     const Cursor& k = locate(p, c);
-    if (!k.complete || k.mask == nullptr) return kUnknown;
+    if (!k.entry.is_resident()) {
+      uniform = value(k, p);
+      t_exit = box_exit(ray, inv_dir, k.lo, k.hi, layout->level_spacing(c.level));
+      return kUniform;
+    }
+    if (cache.cells == nullptr || k.mask == nullptr) return kUnknown;
     constexpr int n = BrickCacheView::kCellsPerAxis;
     const int e = layout->brick_size / n;
+    // The serving brick's cells, in its own level's voxels (an ancestor's are coarser than the
+    // wanted level's).
+    const int sl = k.id.level();
+    const ivec3 lo = k.id.coord() * layout->brick_size;
     // Truncation for floor: a negative coordinate can only come from a point just outside the
     // volume, and it clamps to the first cell either way.
-    const vec3 u = p * k.inv_spacing;
-    int cx = (int(u.x) - k.lo.x) / e, cy = (int(u.y) - k.lo.y) / e, cz = (int(u.z) - k.lo.z) / e;
+    const vec3 u = p * (sl == c.level ? k.inv_spacing : layout->level_inv_spacing(sl));
+    int cx = (int(u.x) - lo.x) / e, cy = (int(u.y) - lo.y) / e, cz = (int(u.z) - lo.z) / e;
     cx = cx < 0 ? 0 : (cx >= n ? n - 1 : cx);
     cy = cy < 0 ? 0 : (cy >= n ? n - 1 : cy);
     cz = cz < 0 ? 0 : (cz >= n ? n - 1 : cz);
     const std::uint32_t bit = std::uint32_t((cz * n + cy) * n + cx);
     const bool occupied = ((cache.cells[std::uint64_t(k.entry.slot()) * BrickCacheView::kCellWords + (bit >> 6)] >>
                             (bit & 63u)) & 1u) != 0u;
-    // The far planes of the cell's box (level voxel units times the level's spacing).
-    const vec3 h = layout->level_spacing(c.level);
-    t_exit = 3.402823466e+38f;
-    const int cell[3] = {cx, cy, cz};
+    const ivec3 cell_lo = lo + ivec3(cx, cy, cz) * e;
+    t_exit = box_exit(ray, inv_dir, cell_lo, cell_lo + e, layout->level_spacing(sl));
+    if (!k.complete) {
+      // A fallback serves only the wanted brick's samples: the next wanted brick may be resident.
+      const float t_brick = box_exit(ray, inv_dir, k.lo, k.hi, layout->level_spacing(c.level));
+      t_exit = t_brick < t_exit ? t_brick : t_exit;
+    }
+    return occupied ? kOccupied : kClear;
+  }
+
+  // Where the ray leaves the box [lo, hi) of voxels of spacing h: its far planes.
+  SL_HOST_DEVICE SL_INLINE static float box_exit(const Ray& ray, const vec3& inv_dir, const ivec3& lo, const ivec3& hi,
+                                                const vec3& h) {
+    float t_exit = 3.402823466e+38f;
     for (int a = 0; a < 3; ++a) {
       if (inv_dir[a] == 0.0f) continue;
-      const int plane = k.lo[a] + (inv_dir[a] > 0.0f ? cell[a] + 1 : cell[a]) * e;
+      const int plane = inv_dir[a] > 0.0f ? hi[a] : lo[a];
       const float t = (float(plane) * h[a] - ray.origin[a]) * inv_dir[a];
       t_exit = t < t_exit ? t : t_exit;
     }
-    return occupied ? kOccupied : kClear;
+    return t_exit;
+  }
+
+  // Whether p's voxel at the cursor's level lies in the cursor's wanted brick (locate would reuse it).
+  SL_HOST_DEVICE SL_INLINE bool in_cursor(const vec3& p) const {
+    const vec3 u = p * cur.inv_spacing;
+    const ivec3 d = layout->level_dims[cur.level];
+    ivec3 v(int(glm::floor(u.x)), int(glm::floor(u.y)), int(glm::floor(u.z)));
+    v = glm::clamp(v, ivec3(0), d - 1);
+    return v.x >= cur.lo.x && v.x < cur.hi.x && v.y >= cur.lo.y && v.y < cur.hi.y && v.z >= cur.lo.z &&
+           v.z < cur.hi.z;
+  }
+
+  // The shortfall serve() would count for samples t_entry + j * dt, j = k, k + 2^s, ... < next, all
+  // served by the cursor's entry (a leap passes over them).
+  SL_HOST_DEVICE void count_run(const Ray& ray, float t_entry, float dt, int k, int next, int s,
+                                const SampleContext& c) const {
+    if (!shortfall.counters || next <= k) return;
+    const std::uint64_t n = std::uint64_t(((next - k) + (1 << s) - 1) >> s);
+    std::uint64_t coarsened = 0;
+    if (shortfall.pressured && c.level > 0) {
+      for (int j = k; j < next; j += 1 << s) coarsened += shortfall.finer_by_footprint(ray.at(t_entry + float(j) * dt), c.level);
+    }
+    shortfall.count_many(cur.complete ? 0 : n, coarsened);
   }
 
   // Adds the samples this ray's cursor passed over, and `leapt` more, to the frame's left-out count.

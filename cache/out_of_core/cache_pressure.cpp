@@ -72,6 +72,7 @@ FrameLod CachePressure::frame_lod(const RayGenerator& gen, const RenderSettings&
   f.nearest_t = gen.orthographic ? 0.0f : glm::length(nearest - gen.eye);
   const int finest = f.lod.level_at(f.nearest_t);
   f.step = s.step * float(1 << finest);
+  f.lod.grid_level = finest;
   return f;
 }
 

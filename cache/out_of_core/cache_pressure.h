@@ -25,7 +25,9 @@ struct FrameLod {
   // Sample spacing. One global grid per frame keeps every method's samples identical (DESIGN.md "Ray
   // casting"); its spacing follows the finest level any sample can use this frame (the level at the
   // volume's nearest point), so a view of a whole terabyte volume does not sample coarse bricks 2^l
-  // times more densely than their voxels.
+  // times more densely than their voxels. Farther, coarser levels take every 2^(l - finest)-th
+  // sample of it (LodParams::grid_level = finest): a close-up inside the volume samples its far
+  // levels about as densely as their voxels too.
   float step = 0.0f;
 };
 

@@ -29,6 +29,13 @@ struct LodParams {
   float pixel_angle = 0.0f;    // perspective: footprint = t * pixel_angle (world units)
   float pixel_size = 0.0f;     // orthographic: footprint = pixel_size
   float inv_voxel = 1.0f;      // 1 / level-0 voxel size (min spacing) times the bias
+  // Level-adaptive sample grid: the level the grid's step is made for (out of core, the frame's
+  // finest). A sample at a coarser level l is taken only at every 2^(l - grid_level)-th grid index
+  // and stands for all of them (its opacity is corrected for the longer step), so a far level is
+  // sampled about as densely as its voxels, not as densely as the nearest level's. The rule depends
+  // on the grid index and the level alone, so every method takes the same samples. -1: every grid
+  // sample at every level.
+  int grid_level = -1;
 
   // One level for every sample (pinned, or a single level): the caster sets it once per span.
   SL_HOST_DEVICE SL_INLINE bool constant() const { return pinned >= 0 || levels <= 1; }
@@ -39,6 +46,10 @@ struct LodParams {
     if (!(ratio >= 2.0f)) return 0;
     const int l = int(floorf(log2f(ratio)));
     return l < levels - 1 ? l : levels - 1;
+  }
+  // log2 of the grid steps one sample at `level` stands for.
+  SL_HOST_DEVICE SL_INLINE int stride_log2(int level) const {
+    return grid_level >= 0 && level > grid_level ? level - grid_level : 0;
   }
 };
 
@@ -86,6 +97,7 @@ struct CastParams {
   float ert_threshold = 0.99f;
   bool label_mask = false; // a sample contributes only where its label is enabled
   bool simd = true;        // CPU: DVR samples eight at a time where AVX2 runs (core/cast/sample_batch.h); same image
+  bool leaps = true;       // out of core: march_leaping's leaps; same image and counts (off: the tests' reference)
   vec3 spacing{1.0f};
   TransferFunctionView tf; // opacity already corrected for dt (DESIGN.md "Ray casting")
   Lighting lighting;       // dvr, labels: Blinn–Phong on the gradient (core/cast/shading.h) when enabled
@@ -94,6 +106,11 @@ struct CastParams {
 
   // Iso mode by exact per-cell roots (march_exact on the ray's stretches) instead of grid samples.
   SL_HOST_DEVICE SL_INLINE bool exact_iso() const { return mode == RenderMode::Iso && iso_method == IsoMethod::Exact; }
+  // Whether the level-adaptive grid (LodParams::grid_level) thins the samples. Sampled iso brackets
+  // crossings between consecutive grid samples and keeps every one.
+  SL_HOST_DEVICE SL_INLINE bool strided() const {
+    return lod.grid_level >= 0 && !lod.constant() && mode != RenderMode::Iso;
+  }
 };
 
 // Accumulated state of one ray (front-to-back, premultiplied).
@@ -254,6 +271,9 @@ struct RayCaster {
     const bool alive = fine && fine->enabled() && self.p.mode != RenderMode::Iso
                            ? self.template march_local<true>(r, t_entry, k0, k1, a, unknown, *fine)
                            : self.template march_local<false>(r, t_entry, k0, k1, a, unknown, FineOccupancyView{});
+    // The samples the out-of-core sampler's voxel masks left out on this copy's cursor, whichever
+    // loop took them.
+    if constexpr (requires { self.volume.count_left_out(std::uint64_t(0)); }) self.volume.count_left_out(0);
     acc = a;
     return alive;
   }
@@ -308,43 +328,88 @@ struct RayCaster {
         }
       }
     }
-    if constexpr (!kFine && requires { volume.fine_cell(ray, vec3(0.0f), vec3(0.0f), ctx, clear_v); }) {
-      if (p.filter == Filter::Linear && (p.mode == RenderMode::Dvr || p.mode == RenderMode::Labels)) {
+    if constexpr (!kFine && requires { volume.fine_cell(ray, vec3(0.0f), vec3(0.0f), ctx, clear_v, clear_v); }) {
+      if (p.leaps && p.filter == Filter::Linear && (p.mode == RenderMode::Dvr || p.mode == RenderMode::Labels)) {
         return march_leaping(ray, t_entry, k, k1, acc, ctx, clear_v, lod_varies);
       }
     }
     // Without the grid every sample; with it the samples past the grid's edge, if rounding left any
-    // (still under the mask).
+    // (still under the mask). The level-adaptive grid visits only the indices it takes.
+    if (p.strided()) {
+      for (k = taken_from(k, t_entry); k < k1; k = taken_from(k + 1, t_entry)) {
+        if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, mask)) return false;
+      }
+      return true;
+    }
     for (; k < k1; ++k) {
       if (!take_sample(ray, t_entry, k, acc, ctx, clear_v, lod_varies, mask)) return false;
     }
     return true;
   }
 
-  // Out of core: the samples [k, k1) with leaps over the clear fine cells of resident bricks
-  // (VirtualSampler::fine_cell). A leap ends at the cell's exit and never crosses a change of the
-  // level of detail (the level grows along the ray, so the first and last samples of the leap share it
-  // only if all between do); the samples it passes would each find their mask bit clear, so the image
-  // and every miss, usage and shortfall count are those of sampling one by one.
+  // The first grid index at or after k (>= 0) that the level-adaptive grid takes: a multiple of its
+  // level's stride. The level does not decrease along the ray and strides are powers of two, so an
+  // index skipped for one stride is skipped for every later, larger one.
+  SL_HOST_DEVICE SL_INLINE int taken_from(int k, float t_entry) const {
+    for (;;) {
+      const int m = (1 << p.lod.stride_log2(p.lod.level_at(t_entry + float(k) * p.dt))) - 1;
+      if ((k & m) == 0) return k;
+      k = (k | m) + 1;
+    }
+  }
+
+  // Opacity of a sample standing for 2^s grid steps: 1 - (1 - a)^(2^s), by s squarings (a itself
+  // for one step: 1 - (1 - a) need not round back to a).
+  SL_HOST_DEVICE SL_INLINE static float stretched_opacity(float a, int s) {
+    if (s == 0) return a;
+    float clear = 1.0f - a;
+    for (int i = 0; i < s; ++i) clear *= clear;
+    return 1.0f - clear;
+  }
+
+  // Out of core: the samples [k, k1) with leaps (VirtualSampler::fine_cell) over the clear fine cells
+  // of resident bricks (the samples would each find their mask bit clear: left out) and over the
+  // stretches where nothing is resident and the one value served there is clear (taken samples
+  // that contribute nothing: counted, not fetched). A leap never crosses a change of the level of
+  // detail (the level grows along the ray, so the first and last samples of the leap share it only if
+  // all between do) nor, for what is served, a brick; so the image and every miss, usage and
+  // shortfall count are those of sampling one by one.
   SL_HOST_DEVICE bool march_leaping(const Ray& ray, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx,
                                     float& clear_v, bool lod_varies) const {
     const vec3 inv_dir = FineOccupancyView::inverse_direction(ray);
     float occupied_until = -1.0f;  // the samples before this t lie in an occupied cell: no question
     std::uint64_t leapt = 0;
     bool alive = true;
-    for (; k < k1; ++k) {
+    const bool strided = p.strided();
+    if (strided && k < k1) k = taken_from(k, t_entry);
+    for (; k < k1; k = strided ? taken_from(k + 1, t_entry) : k + 1) {
       const float t = t_entry + float(k) * p.dt;
       if (t >= occupied_until) {
         if (lod_varies) ctx.level = p.lod.level_at(t);
-        float t_exit;
-        const auto cell = volume.fine_cell(ray, inv_dir, ray.at(t), ctx, t_exit);
+        float t_exit, uniform = 0.0f;
+        const auto cell = volume.fine_cell(ray, inv_dir, ray.at(t), ctx, t_exit, uniform);
         if (cell == Sampler::kOccupied) {
           occupied_until = t_exit;
-        } else if (cell == Sampler::kClear) {
+        } else if (cell == Sampler::kClear || (cell == Sampler::kUniform && clear_value(uniform, clear_v))) {
           int next = sample_index(t_exit, t_entry, p.inv_dt);
           next = next < k1 ? next : k1;
+          // The samples the leap passes: on the level-adaptive grid, the stride's multiples (k is one).
+          const int s = strided ? p.lod.stride_log2(ctx.level) : 0;
+          if (next > k + 1) {
+            int last = k + (((next - k - 1) >> s) << s);
+            if (last > k && !volume.in_cursor(ray.at(t_entry + float(last) * p.dt))) {
+              next = last;  // rounding put the last one in the next brick: it is not passed over
+              last -= 1 << s;
+            }
+          }
           if (next > k + 1 && (!lod_varies || p.lod.level_at(t_entry + float(next - 1) * p.dt) == ctx.level)) {
-            leapt += std::uint64_t(next - k);
+            const std::uint64_t n = std::uint64_t(((next - k) + (1 << s) - 1) >> s);
+            volume.count_run(ray, t_entry, p.dt, k, next, s, ctx);
+            if (cell == Sampler::kClear) {
+              leapt += n;
+            } else {
+              acc.samples += std::uint32_t(n);
+            }
             k = next - 1;
             continue;
           }
@@ -359,6 +424,14 @@ struct RayCaster {
     return alive;
   }
 
+  // Whether a sample of value v composites nothing (DVR, labels: zero opacity), as take_sample
+  // decides it; DVR remembers it as its last clear value.
+  SL_HOST_DEVICE SL_INLINE bool clear_value(float v, float& clear_v) const {
+    if (p.mode == RenderMode::Dvr && v == clear_v) return true;
+    if (p.tf.alpha_at(p.tf.coord(v)) > 0.0f) return false;
+    if (p.mode == RenderMode::Dvr) clear_v = v;
+    return true;
+  }
 
   // Sample k of march_local: fetch, classify, composite. False once the ray has terminated. `mask`
   // (optional): the sample is left out, not fetched, where its trilinear cell's bit is clear (exact:
@@ -379,7 +452,11 @@ struct RayCaster {
         v = value_at(pos, ctx);
       }
     } else {
-      if (lod_varies) ctx.level = p.lod.level_at(t);
+      if (lod_varies) {
+        ctx.level = p.lod.level_at(t);
+        // Off the level-adaptive grid: not a sample (the march loops do not visit such indices).
+        if (p.strided() && (k & ((1 << p.lod.stride_log2(ctx.level)) - 1)) != 0) return true;
+      }
       if constexpr (requires { volume.sample_unless_clear(pos, ctx, v); }) {
         // Out of core, the serving brick's own voxel mask (cache/brick_cache.h), for trilinear samples in
         // the modes it is built for (the caller's view holds masks only then): left out, not fetched.
@@ -399,11 +476,12 @@ struct RayCaster {
       case RenderMode::Dvr: {
         if (v == clear_v) break;
         const TransferFunctionView::Coord tc = p.tf.coord(v);
-        const float a = p.tf.alpha_at(tc);
+        float a = p.tf.alpha_at(tc);
         if (!(a > 0.0f)) {
           clear_v = v;
           break;
         }
+        if (lod_varies && p.strided()) a = stretched_opacity(a, p.lod.stride_log2(ctx.level));
         if (!visible_label(pos, ctx)) break;
         vec3 rgb = p.tf.rgb_at(tc);
         if (p.lighting.enabled) rgb = blinn_phong(rgb, gradient_at(pos, ctx), ray.dir, p.lighting);
@@ -411,8 +489,9 @@ struct RayCaster {
         break;
       }
       case RenderMode::Labels: {
-        const float a = p.tf.alpha_at(p.tf.coord(v));
+        float a = p.tf.alpha_at(p.tf.coord(v));
         if (!(a > 0.0f)) break;
+        if (lod_varies && p.strided()) a = stretched_opacity(a, p.lod.stride_log2(ctx.level));
         const std::uint32_t id = volume.label_at(pos, ctx);
         if (id == 0u || !p.labels.enabled(id)) break;
         vec3 rgb = label_color(id);

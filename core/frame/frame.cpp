@@ -51,6 +51,7 @@ CastParams make_cast_params(const RenderSettings& s, const VolumeDesc& d, const 
   p.tf = tf.view(step);  // α' = 1 − (1 − α)^(dt / min spacing), and dt / min spacing = step
   p.label_mask = enabled != nullptr && label_volume && s.mode != RenderMode::Labels;
   p.simd = s.simd;
+  p.leaps = s.leaps;
   if (enabled) p.labels = enabled->view();
   p.lod = lod;
   return p;

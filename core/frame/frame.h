@@ -32,6 +32,8 @@ struct RenderSettings {
                            // sparse subtrees flattened to their leaves first (flatten_sparse_subtrees,
                            // tighten_leaf_boxes; core/occupancy/occupancy_geometry.h)
   bool simd = true;        // CPU: DVR samples eight at a time with AVX2 where it runs (core/cast/sample_batch.h)
+  bool leaps = true;       // out of core: leap over clear fine cells and clear unloaded stretches (RayCaster::
+                           // march_leaping); the image and every count are the same (tests compare with off)
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
   bool depth_complexity_view = false;  // image shows segments (or octree nodes) per ray
   bool boxes_overlay = false;          // draw the occupancy geometry over the image
