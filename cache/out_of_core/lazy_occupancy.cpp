@@ -157,12 +157,23 @@ bool LazyOccupancy::take_metadata_request(BrickId id) { return metadata_requeste
 // source's bounds over every level-0 voxel below (DESIGN.md "Virtual memory", "metadata is a min/max
 // pyramid"): a coarse block's range covers the finer voxels under it, so a region culled EMPTY at a
 // coarse level is EMPTY at every finer level and the tree never has to un-cull when the view zooms in.
-void LazyOccupancy::compute_metadata(const LoadedBrick& b, bool apply) {
+LazyOccupancy::BrickMetadata LazyOccupancy::brick_metadata(const LoadedBrick& b) const {
+  BrickMetadata m;
+  for_each_culling_block(b.id, [&](ivec3 c) { m.blocks.push_back(c); });
+  m.metadata = block_metadata(b, m.blocks, m.bounded);
+  return m;
+}
+
+void LazyOccupancy::compute_metadata(const LoadedBrick& b, bool apply, BrickMetadata* computed) {
   const int l = b.id.level();
-  std::vector<ivec3> blocks;
-  for_each_culling_block(b.id, [&](ivec3 c) { blocks.push_back(c); });
-  bool bounded = false;
-  std::vector<BlockMetadata> ms = block_metadata(b, blocks, bounded);
+  BrickMetadata here;
+  if (computed == nullptr) {
+    here = brick_metadata(b);
+    computed = &here;
+  }
+  const std::vector<ivec3>& blocks = computed->blocks;
+  std::vector<BlockMetadata>& ms = computed->metadata;
+  const bool bounded = computed->bounded;
   for (std::size_t i = 0; i < blocks.size(); ++i) {
     ++metadata_computed_this_frame_;
     const std::uint64_t key = BrickId::pack(l, blocks[i]).bits;

@@ -56,9 +56,20 @@ class LazyOccupancy {
   // Whether a collected brick was loaded for its metadata (and clears the request).
   bool take_metadata_request(BrickId id);
   bool waiting_for_metadata() const { return !metadata_requested_.empty(); }
-  // Computes (and caches) the metadata of a loaded brick's culling blocks; `apply`: classes them in
-  // the tree now (a prefetched brick's wait until a frame first samples it).
-  void compute_metadata(const LoadedBrick& b, bool apply = true);
+  // The metadata of a loaded brick's culling blocks, computed without touching the occupancy (pure,
+  // thread-safe: a frame's collected bricks compute theirs on all cores).
+  struct BrickMetadata {
+    std::vector<ivec3> blocks;
+    std::vector<BlockMetadata> metadata;
+    bool bounded = false;  // from the source's bounds (else from the brick's voxels, provisional)
+  };
+  BrickMetadata brick_metadata(const LoadedBrick& b) const;
+  // Whether a collected brick was requested for its metadata (take_metadata_request's answer).
+  bool metadata_requested(BrickId id) const { return metadata_requested_.count(id.bits) != 0; }
+  // Caches (and with `apply` classes in the tree now; a prefetched brick's wait until a frame first
+  // samples it) the metadata of a loaded brick's culling blocks: `computed` if given (brick_metadata
+  // of the same brick), else computed here.
+  void compute_metadata(const LoadedBrick& b, bool apply = true, BrickMetadata* computed = nullptr);
   // A brick that can never load: its region's occupancy can never be known, so it is called
   // NON_EMPTY (conservative; the data read as missing), rays stop reporting occupancy misses there
   // and the view can converge.

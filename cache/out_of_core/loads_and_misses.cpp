@@ -1,8 +1,10 @@
 // The out-of-core renderer's answer to what the last frame left (renderer.h): the bricks the loader
 // finished become resident, and the misses the cast reported are resolved into loads.
 #include <algorithm>
+#include <vector>
 
 #include "cache/out_of_core/renderer.h"
+#include "core/util/parallel.h"
 
 namespace sl {
 
@@ -16,19 +18,32 @@ void OutOfCoreRenderer::make_loads_resident() {
     occupancy_.mark_unreadable(f.id);
     prefetch_.forget_failed(f.id);
   }
-  for (LoadedBrick& b : batch.bricks) take_loaded_brick(std::move(b));
+  // The metadata the bricks bring (a source's bounds can mean synthesising or reading the level-0
+  // voxels below a block): computed on all cores, then applied in the bricks' order, which is all
+  // that touches the occupancy.
+  const std::size_t n = batch.bricks.size();
+  std::vector<char> wanted(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const BrickId id = batch.bricks[i].id;
+    wanted[i] = occupancy_.metadata_requested(id) || !occupancy_.has_metadata(id);
+  }
+  std::vector<LazyOccupancy::BrickMetadata> computed(n);
+  parallel_for(std::size_t(0), n, [&](std::size_t i) {
+    if (wanted[i]) computed[i] = occupancy_.brick_metadata(batch.bricks[i]);
+  });
+  for (std::size_t i = 0; i < n; ++i) take_loaded_brick(std::move(batch.bricks[i]), wanted[i] ? &computed[i] : nullptr);
   residency_.finish_uploads();
 }
 
-void OutOfCoreRenderer::take_loaded_brick(LoadedBrick&& b) {
+void OutOfCoreRenderer::take_loaded_brick(LoadedBrick&& b, LazyOccupancy::BrickMetadata* computed) {
   const BrickId id = b.id;
   const bool prefetched = prefetch_.take_requested(id);
   if (occupancy_.take_metadata_request(id)) {
-    occupancy_.compute_metadata(b);
+    occupancy_.compute_metadata(b, /*apply=*/true, computed);
   } else if (prefetched && !occupancy_.has_metadata(id)) {
     // Chosen under a known NON_EMPTY region: its own metadata will refine the tree there, as a
     // frame's load of it would (LazyOccupancy::refined_by_loading) — once a frame samples it.
-    occupancy_.compute_metadata(b, /*apply=*/false);
+    occupancy_.compute_metadata(b, /*apply=*/false, computed);
     prefetch_.metadata_unapplied(id);
   }
   const Residency::Placement p = residency_.place(std::move(b), frame_, prefetched);

@@ -95,7 +95,7 @@ class OutOfCoreRenderer {
   MissResolution answer_last_frame();
   // (loads_and_misses.cpp)
   void make_loads_resident();
-  void take_loaded_brick(LoadedBrick&& b);
+  void take_loaded_brick(LoadedBrick&& b, LazyOccupancy::BrickMetadata* computed);
   MissResolution resolve_misses();
   // Loads a miss asks for: for metadata (always made), for data (as far as there is room), and per
   // data load whether its metadata refine a coarser NON_EMPTY leaf.
