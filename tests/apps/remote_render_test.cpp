@@ -82,8 +82,12 @@ TEST(RemoteRender, DiskCacheServesTheSecondRun) {
   const auto second = render(dir, server.url("v3.zarr"), "second", "", cache);
   ASSERT_EQ(second.exit_code, 0) << second.output;
   EXPECT_EQ(test::read_text(dir / "first.png"), test::read_text(dir / "second.png"));
-  // The first run's hits: the store probe's objects read again by the open.
-  EXPECT_LT(number_before(first.output, "hits"), 5u) << first.output;
+  // The first run's hits are few: the store probe's objects read again by the open, and a chunk that
+  // a second brick's apron reads after the chunk cache let it go (how many depends on the loader
+  // threads' timing).
+  std::smatch m;
+  ASSERT_TRUE(std::regex_search(first.output, m, std::regex("disk cache ([0-9]+) hits, ([0-9]+) misses"))) << first.output;
+  EXPECT_LT(std::stoull(m[1]) * 10, std::stoull(m[2])) << first.output;
   EXPECT_GT(number_before(second.output, "hits"), 100u) << second.output;
   // The second run asks only for objects that do not exist (404s are not cached): no shard request.
   const std::vector<std::string> log = server.log();
