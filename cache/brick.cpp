@@ -11,6 +11,21 @@ std::string to_string(BrickId id) {
          std::to_string(c.y) + ", " + std::to_string(c.z) + ")";
 }
 
+std::vector<ivec3> brick_culling_blocks(const BrickLayout& layout, BrickId id, int block) {
+  SL_CHECK(block > 0 && layout.brick_size % block == 0);
+  const int per = layout.brick_size / block;
+  const ivec3 dims = layout.dims(id.level());
+  std::vector<ivec3> blocks;
+  blocks.reserve(std::size_t(per) * per * per);
+  for (int z = 0; z < per; ++z)
+    for (int y = 0; y < per; ++y)
+      for (int x = 0; x < per; ++x) {
+        const ivec3 c = id.coord() * per + ivec3(x, y, z);
+        if (c.x * block < dims.x && c.y * block < dims.y && c.z * block < dims.z) blocks.push_back(c);
+      }
+  return blocks;
+}
+
 BrickLayout BrickLayout::make(ivec3 dims, vec3 spacing, int brick_size, const std::string& origin) {
   if (brick_size != 8 && brick_size != 16 && brick_size != 32 && brick_size != 64) {
     throw InputError("--brick", "brick size " + std::to_string(brick_size) + " is not one of 8, 16, 32, 64");

@@ -14,6 +14,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/util/config.h"
 #include "core/util/math.h"
@@ -148,5 +149,10 @@ struct BrickLayout {
   }
 };
 static_assert(sizeof(BrickLayout) == 2 * kMaxBrickLevels * 12 + 2 * 12 + 8, "BrickLayout is plain data");
+
+// The culling blocks (edge `block` level voxels; `block` divides the brick size) of a brick's payload
+// that lie inside its level, as block coordinates of that level, x fastest: the blocks whose metadata
+// the brick's voxels (or a source's bounds) give.
+std::vector<ivec3> brick_culling_blocks(const BrickLayout& layout, BrickId id, int block);
 
 }  // namespace sl

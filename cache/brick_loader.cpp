@@ -25,8 +25,8 @@ std::chrono::milliseconds RetryPolicy::backoff(int attempt) const {
 }
 
 BrickLoader::BrickLoader(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, int threads,
-                         const RetryPolicy& retry, std::size_t finished_bytes)
-    : source_(std::move(source)), layout_(layout), retry_(retry) {
+                         const RetryPolicy& retry, std::size_t finished_bytes, int bounds_block)
+    : source_(std::move(source)), layout_(layout), retry_(retry), bounds_block_(bounds_block) {
   SL_CHECK(source_ != nullptr);
   SL_CHECK(retry_.max_attempts >= 1 && retry_.first_backoff.count() >= 0 && retry_.max_backoff >= retry_.first_backoff);
   if (threads <= 0) threads = int(std::clamp(std::thread::hardware_concurrency(), 1u, 4u));
@@ -50,28 +50,45 @@ BrickLoader::~BrickLoader() {
   for (std::thread& t : workers_) t.join();
 }
 
+// The latest request's order is the loader's: its ids, new or already queued, go ahead of every job
+// queued before, in the order given (the renderer's priority for the frame it just cast), so a brick
+// an earlier view wanted never delays one the present view wants. Jobs it does not name keep their
+// order behind (never dropped: a metadata load may be asked for once only).
 std::size_t BrickLoader::request(std::span<const BrickId> ids) {
   std::size_t queued = 0;
   {
     std::lock_guard lock(mutex_);
+    std::unordered_set<BrickId, BrickIdHash> again;  // named and queued before (request or prefetch)
     for (const BrickId id : ids) {
       SL_CHECK(layout_.contains(id));
-      if (failed_.count(id)) continue;
-      if (!known_.insert(id).second) {
-        // Already known: a prefetch still queued becomes a request now (it keeps its place in the
-        // order of requests, ahead of later ones).
-        const auto it = std::find_if(prefetch_queue_.begin(), prefetch_queue_.end(),
-                                     [&](const Job& j) { return j.id == id; });
-        if (it != prefetch_queue_.end()) {
-          queue_.push_back(*it);
-          prefetch_queue_.erase(it);
-          ++queued;
-        }
-        continue;
-      }
-      queue_.push_back({next_seq_++, id});
-      ++queued;
+      if (!failed_.count(id) && known_.count(id)) again.insert(id);
     }
+    std::unordered_map<BrickId, Job, BrickIdHash> waiting;  // the queued jobs named again, taken out
+    const auto take = [&](std::deque<Job>& q) {
+      if (again.empty()) return;
+      std::erase_if(q, [&](const Job& j) { return again.count(j.id) && waiting.emplace(j.id, j).second; });
+    };
+    take(queue_);
+    const std::size_t from_requests = waiting.size();
+    take(prefetch_queue_);
+    queued += waiting.size() - from_requests;  // a prefetch becomes a request
+    std::deque<Job> front;
+    for (const BrickId id : ids) {
+      if (failed_.count(id)) continue;
+      if (known_.insert(id).second) {
+        front.push_back({next_seq_++, id});
+        ++queued;
+      } else if (const auto it = waiting.find(id); it != waiting.end()) {
+        Job j = it->second;
+        j.seq = next_seq_++;  // collect hands bricks out in this order too
+        front.push_back(j);
+        waiting.erase(it);
+      }
+    }
+    if (!front.empty() && !queue_.empty()) {
+      for (Job& j : queue_) j.seq = next_seq_++;  // behind the front: collect follows the queue's order
+    }
+    queue_.insert(queue_.begin(), front.begin(), front.end());
   }
   if (queued == 1) {
     wake_.notify_one();
@@ -219,7 +236,12 @@ void BrickLoader::work() {
     std::string error;
     bool transient = false;
     try {
-      source_->read_brick(layout_, job.id, brick.intensity, brick.labels);
+      brick.bounds.clear();
+      if (bounds_block_ > 0 && job.id.level() > 0) {
+        source_->read_brick_bounded(layout_, job.id, brick.intensity, brick.labels, bounds_block_, brick.bounds);
+      } else {
+        source_->read_brick(layout_, job.id, brick.intensity, brick.labels);
+      }
     } catch (const TransientError& e) {
       error = e.reason();
       transient = true;

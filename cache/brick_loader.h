@@ -31,6 +31,10 @@ struct LoadedBrick {
   BrickId id;
   std::vector<std::byte> intensity;  // stored_voxels * voxel_size(desc().type)
   std::vector<std::byte> labels;     // empty when the source has no labels
+  // A level >= 1 brick of a loader given a culling block size: its culling blocks' bounds over the
+  // level-0 voxels below (VolumeSource::read_brick_bounded, in brick_culling_blocks order), read in the
+  // worker with the brick; empty when the source cannot bound them.
+  std::vector<BlockMetadata> bounds;
 };
 
 struct BrickFailure {
@@ -73,9 +77,12 @@ class BrickLoader {
   static constexpr std::size_t kDefaultFinishedBytes = std::size_t(256) << 20;
 
   // threads = 0: min(4, hardware threads). finished_bytes: the bound above (at least one brick per
-  // worker is always allowed).
+  // worker is always allowed). bounds_block > 0: coarse bricks come with their culling blocks' bounds
+  // (LoadedBrick::bounds; a source that synthesises or reads the level-0 voxels for them does that
+  // once, in the worker, not again on the frame's thread).
   BrickLoader(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, int threads = 0,
-              const RetryPolicy& retry = {}, std::size_t finished_bytes = kDefaultFinishedBytes);
+              const RetryPolicy& retry = {}, std::size_t finished_bytes = kDefaultFinishedBytes,
+              int bounds_block = 0);
   // Drops queued work and waiting retries (without waiting out their backoff), finishes reads in
   // flight, joins the workers.
   ~BrickLoader();
@@ -83,8 +90,9 @@ class BrickLoader {
   BrickLoader& operator=(const BrickLoader&) = delete;
 
   // Queues the ids that are not already queued, loading, waiting for a retry, finished-but-uncollected
-  // or failed; a failed brick is never requested again. Returns how many were queued. Never blocks on
-  // loading.
+  // or failed; a failed brick is never requested again. The ids given, new or still queued, go ahead of
+  // every earlier queued job, in the order given (priority: the caller's first id loads first).
+  // Returns how many were queued (a queued prefetch named here counts). Never blocks on loading.
   std::size_t request(std::span<const BrickId> ids);
   // As request, at the lowest priority: a worker starts a prefetch only when no request is queued
   // (prefetch never delays a brick a frame asked for). Requesting a queued prefetch promotes it.
@@ -124,7 +132,7 @@ class BrickLoader {
   mutable std::mutex mutex_;
   std::condition_variable wake_, idle_;
   struct Job {
-    std::uint64_t seq;  // request order: collect hands out the oldest request first
+    std::uint64_t seq;  // the queue's order when queued: collect hands out the lowest first
     BrickId id;
     int attempt = 0;    // reads of this request that failed transiently so far
   };
@@ -148,6 +156,7 @@ class BrickLoader {
   std::vector<LoadedBrick> spare_;           // recycled buffers
   std::size_t loading_ = 0;
   std::size_t finished_cap_ = 0;  // finished + loading bricks at most (finished_bytes / brick bytes)
+  int bounds_block_ = 0;
   std::uint64_t completed_ = 0;
   LoaderCounts counts_;
   bool stop_ = false;

@@ -41,6 +41,17 @@ bool VolumeSource::bound_blocks(const BrickLayout&, int, int, std::span<const iv
   return false;
 }
 
+void VolumeSource::read_brick_bounded(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                                      std::span<std::byte> out_labels, int block,
+                                      std::vector<BlockMetadata>& bounds) const {
+  read_brick(layout, id, out_intensity, out_labels);
+  bounds.clear();
+  if (id.level() == 0) return;
+  const std::vector<ivec3> blocks = brick_culling_blocks(layout, id, block);
+  bounds.resize(blocks.size());
+  if (!bound_blocks(layout, id.level(), block, blocks, bounds)) bounds.clear();
+}
+
 MemoryVolumeSource::MemoryVolumeSource(std::shared_ptr<const Volume> intensity, std::shared_ptr<const Volume> labels,
                                        std::string name, PyramidKind pyramid)
     : intensity_(std::move(intensity)), labels_(std::move(labels)), name_(std::move(name)), pyramid_(pyramid) {

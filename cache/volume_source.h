@@ -44,6 +44,14 @@ class VolumeSource {
   virtual bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
                             std::span<BlockMetadata> out) const;
 
+  // read_brick, and for a brick of level >= 1 the bounds (as bound_blocks) of its culling blocks of
+  // edge `block` (brick_culling_blocks order) into `bounds` — left empty when the source cannot bound
+  // them. A source that synthesises or reads the level-0 voxels below the brick for both does it once
+  // (the default calls the two). Thread-safe; throws as read_brick.
+  virtual void read_brick_bounded(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                                  std::span<std::byte> out_labels, int block,
+                                  std::vector<BlockMetadata>& bounds) const;
+
   // The intensity pyramid read_brick serves at levels >= 1 (pyramid.h), fixed at construction.
   virtual PyramidKind pyramid() const { return PyramidKind::Mean; }
 

@@ -86,15 +86,7 @@ void LazyOccupancy::apply_metadata(std::uint64_t key, const BlockMetadata& m) {
 
 template <class Fn>
 void LazyOccupancy::for_each_culling_block(BrickId id, Fn&& fn) const {
-  const int per = layout_.brick_size / block_;
-  const ivec3 dims = layout_.dims(id.level());
-  for (int z = 0; z < per; ++z)
-    for (int y = 0; y < per; ++y)
-      for (int x = 0; x < per; ++x) {
-        const ivec3 c = id.coord() * per + ivec3(x, y, z);
-        if (c.x * block_ >= dims.x || c.y * block_ >= dims.y || c.z * block_ >= dims.z) continue;  // outside
-        fn(c);
-      }
+  for (const ivec3 c : brick_culling_blocks(layout_, id, block_)) fn(c);
 }
 
 std::uint32_t LazyOccupancy::node_for_brick(BrickId id) const {
@@ -159,7 +151,13 @@ bool LazyOccupancy::take_metadata_request(BrickId id) { return metadata_requeste
 // coarse level is EMPTY at every finer level and the tree never has to un-cull when the view zooms in.
 LazyOccupancy::BrickMetadata LazyOccupancy::brick_metadata(const LoadedBrick& b) const {
   BrickMetadata m;
-  for_each_culling_block(b.id, [&](ivec3 c) { m.blocks.push_back(c); });
+  m.blocks = brick_culling_blocks(layout_, b.id, block_);
+  if (!b.bounds.empty()) {  // the loader read the source's bounds with the brick
+    SL_CHECK(b.bounds.size() == m.blocks.size());
+    m.metadata = b.bounds;
+    m.bounded = true;
+    return m;
+  }
   m.metadata = block_metadata(b, m.blocks, m.bounded);
   return m;
 }

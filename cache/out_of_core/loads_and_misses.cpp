@@ -1,6 +1,8 @@
 // The out-of-core renderer's answer to what the last frame left (renderer.h): the bricks the loader
 // finished become resident, and the misses the cast reported are resolved into loads.
 #include <algorithm>
+#include <limits>
+#include <utility>
 #include <vector>
 
 #include "cache/out_of_core/renderer.h"
@@ -66,8 +68,10 @@ void OutOfCoreRenderer::resolve_miss(BrickId id, MissResolution& res, MissLoads&
   if (residency_.loader().failed(id)) return;
   const OccupancyClass cls = occupancy_.brick_class(id);
   if (cls == OccupancyClass::Unknown) {
-    // Cached metadata regrow a retired or re-culled region without touching the data.
-    if (!occupancy_.apply_cached_metadata_if_complete(id) && occupancy_.request_metadata(id)) {
+    // Cached metadata regrow a retired or re-culled region without touching the data. A load asked
+    // for before is named again: this frame's priority orders it (the loader queues it once).
+    if (!occupancy_.apply_cached_metadata_if_complete(id)) {
+      occupancy_.request_metadata(id);
       loads.metadata.push_back(id);
     }
     return;
@@ -84,10 +88,44 @@ void OutOfCoreRenderer::resolve_miss(BrickId id, MissResolution& res, MissLoads&
   }
 }
 
+// Where a brick stands in the frame that missed it: the distance from the eye to its box along the
+// view (perspective: to the box's nearest point; orthographic: depth of its nearest corner). Nearer
+// first: they occlude what lies behind, so the picture fills front to back, and a ray that ends in
+// them never asks for the bricks behind.
+float OutOfCoreRenderer::load_priority(BrickId id) const {
+  const WorldBox b = layout().brick_box(id);
+  if (!last_gen_.orthographic) return glm::length(glm::clamp(last_gen_.eye, b.lo, b.hi) - last_gen_.eye);
+  float depth = std::numeric_limits<float>::max();
+  for (int c = 0; c < 8; ++c) {
+    const vec3 p((c & 1) ? b.hi.x : b.lo.x, (c & 2) ? b.hi.y : b.lo.y, (c & 4) ? b.hi.z : b.lo.z);
+    depth = std::min(depth, glm::dot(p - last_gen_.eye, last_gen_.forward));
+  }
+  return depth;
+}
+
+// In the order the frame needs them (load_priority; ties by id, so the order is deterministic).
+void OutOfCoreRenderer::order_by_priority(std::vector<BrickId>& ids, std::vector<bool>* with) const {
+  std::vector<std::pair<float, std::size_t>> keyed(ids.size());
+  for (std::size_t i = 0; i < ids.size(); ++i) keyed[i] = {load_priority(ids[i]), i};
+  std::sort(keyed.begin(), keyed.end(), [&](const auto& a, const auto& b) {
+    return a.first != b.first ? a.first < b.first : ids[a.second].bits < ids[b.second].bits;
+  });
+  std::vector<BrickId> sorted(ids.size());
+  std::vector<bool> sorted_with(with ? ids.size() : 0);
+  for (std::size_t i = 0; i < keyed.size(); ++i) {
+    sorted[i] = ids[keyed[i].second];
+    if (with) sorted_with[i] = (*with)[keyed[i].second];
+  }
+  ids.swap(sorted);
+  if (with) with->swap(sorted_with);
+}
+
 // Metadata loads are always made: culling needs them. Data loads only as far as there is room: a
 // brick loaded without a slot would be dropped and requested again every frame (loader work for
-// nothing, and no progress).
+// nothing, and no progress). Each kind in the frame's priority, metadata first.
 void OutOfCoreRenderer::request_loads(MissLoads& loads, MissResolution& res) {
+  order_by_priority(loads.metadata, nullptr);
+  order_by_priority(loads.data, &loads.refines);
   res.loadable = loads.data.size();
   const std::size_t n = std::min(loads.data.size(), residency_.free_slots_for_loads());
   std::vector<BrickId>& ids = loads.metadata;

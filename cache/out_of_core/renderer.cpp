@@ -23,7 +23,7 @@ OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source,
     : source_(std::move(source)),
       settings_(settings),
       block_(block),
-      residency_(source_, BrickLayout::make(source_->desc(), settings.brick, source_->name()), settings,
+      residency_(source_, BrickLayout::make(source_->desc(), settings.brick, source_->name()), settings, block,
                  std::move(device)),
       occupancy_(source_, residency_.layout(), block,
                  default_metadata_capacity(settings, residency_.cache().slot_count(), block)),
@@ -50,6 +50,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   MissResolution resolved = answer_last_frame();
 
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
+  last_gen_ = gen;
   const FrameLod lod = pressure_.frame_lod(gen, s, source_->desc());
   // Before the tree is used: provisional EMPTY where this frame wants a finer level opens now.
   resolved.changed = occupancy_.update_tree(lod.lod, gen) || resolved.changed;

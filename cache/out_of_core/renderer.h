@@ -105,6 +105,8 @@ class OutOfCoreRenderer {
   };
   void resolve_miss(BrickId id, MissResolution& res, MissLoads& loads);
   void request_loads(MissLoads& loads, MissResolution& res);
+  float load_priority(BrickId id) const;
+  void order_by_priority(std::vector<BrickId>& ids, std::vector<bool>* with) const;
   SkipInputs skip_inputs(const RenderSettings& s, const RayGenerator& gen, Stats& st);
   void cast(const OutOfCoreScene& scene, const RenderSettings& s, const RayGenerator& gen, const FrameLod& lod,
             const SkipInputs& skip, Frame& frame);
@@ -132,6 +134,7 @@ class OutOfCoreRenderer {
   FramePipeline pipeline_;
   SampleClip clip_;
   CullParams cull_;  // this frame's culling inputs (the voxel masks are built for them)
+  RayGenerator last_gen_;  // the rays of the frame whose misses are resolved next (load priority)
 };
 
 }  // namespace sl

@@ -63,7 +63,7 @@ void gather_words(std::vector<Index>& index, std::vector<std::uint32_t>& value, 
 }  // namespace
 
 Residency::Residency(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout,
-                     const OutOfCoreSettings& settings, std::unique_ptr<CastDevice> device)
+                     const OutOfCoreSettings& settings, int block, std::unique_ptr<CastDevice> device)
     : source_(std::move(source)),
       layout_(layout),
       page_table_(layout_),
@@ -71,7 +71,7 @@ Residency::Residency(std::shared_ptr<const VolumeSource> source, const BrickLayo
              source_->has_labels() ? std::optional<VoxelType>(source_->label_type()) : std::nullopt,
              settings.cache_mb),
       misses_(1u << 16),
-      loader_(source_, layout_, settings.loader_threads, settings.retry),
+      loader_(source_, layout_, settings.loader_threads, settings.retry, BrickLoader::kDefaultFinishedBytes, block),
       device_(device ? std::move(device) : std::make_unique<CpuCastDevice>()),
       device_memory_(!device_->shares_host_memory()) {}
 

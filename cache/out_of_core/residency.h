@@ -25,10 +25,11 @@ namespace sl {
 
 class Residency {
  public:
-  // Throws InputError for a cache too small for one brick per level. `device`: null for the CPU
-  // caster on the host's own tables.
+  // Throws InputError for a cache too small for one brick per level. `block`: the culling block, whose
+  // bounds the loader reads with each coarse brick. `device`: null for the CPU caster on the host's
+  // own tables.
   Residency(std::shared_ptr<const VolumeSource> source, const BrickLayout& layout, const OutOfCoreSettings& settings,
-            std::unique_ptr<CastDevice> device);
+            int block, std::unique_ptr<CastDevice> device);
   // Tells the device the geometry its memory must hold (once, after the renderer checked its input).
   void configure_device();
 

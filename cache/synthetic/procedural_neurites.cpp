@@ -233,11 +233,59 @@ struct Slab {
   }
 };
 
+// Culling bounds of level-l blocks over the level-0 voxels below them (bound_blocks), gathered from
+// level-0 voxels as they are synthesised, in any number of parts (the slabs of a read): each part adds
+// to the blocks whose dilated box it overlaps. Parts that cover every box give what one scan of each
+// box gives (merge_box_metadata).
+class LevelZeroBounds {
+ public:
+  LevelZeroBounds(ivec3 dims0, ivec3 level_dims, int level, int block, std::span<const ivec3> blocks)
+      : lo_(blocks.size()), hi_(blocks.size()), out_(blocks.size()) {
+    const int s = 1 << level;
+    for (std::size_t i = 0; i < blocks.size(); ++i) {
+      ivec3 f, e;
+      dilated_block(level_dims, blocks[i] * block, block, f, e);
+      lo_[i] = f * s;
+      hi_[i] = glm::min(e * s, dims0);
+    }
+  }
+  // The union of the boxes (level-0 voxels [first, end)): what must be synthesised.
+  void cover(ivec3& first, ivec3& end) const {
+    first = ivec3(std::numeric_limits<int>::max());
+    end = ivec3(0);
+    for (std::size_t i = 0; i < lo_.size(); ++i) first = glm::min(first, lo_[i]), end = glm::max(end, hi_[i]);
+  }
+  // Level-0 voxels [org, org + ext), x fastest.
+  void add(const std::uint8_t* intensity, const std::uint32_t* labels, ivec3 org, ivec3 ext) {
+    const VolumeView iv{intensity, ext, vec3(1.0f), VoxelType::U8};
+    const VolumeView lv{labels, ext, vec3(1.0f), VoxelType::U32};
+    for (std::size_t i = 0; i < lo_.size(); ++i) {
+      const ivec3 a = glm::max(lo_[i], org), b = glm::min(hi_[i], org + ext);
+      if (glm::any(glm::greaterThanEqual(a, b))) continue;
+      BlockMetadata m = compute_box_metadata(iv, iv, &lv, a - org, b - org);
+      if (out_[i].computed) {
+        merge_box_metadata(out_[i], m);
+      } else {
+        out_[i] = std::move(m);
+      }
+    }
+  }
+  std::vector<BlockMetadata> take() {
+    for (const BlockMetadata& m : out_) SL_CHECK(m.computed);  // every box was covered
+    return std::move(out_);
+  }
+
+ private:
+  std::vector<ivec3> lo_, hi_;
+  std::vector<BlockMetadata> out_;
+};
+
 // The level-l voxels [first, first + n): their level-0 voxels synthesised slab by slab (one level-l
 // slice each), every slab reduced 2x per level with pyramid.h — the MemoryVolumeSource definition, so
-// identical to its pyramid (mean or max) of the same level-0 data.
+// identical to its pyramid (mean or max) of the same level-0 data. `bounds` (optional) takes every
+// slab's level-0 voxels before they are reduced.
 void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec3 first, ivec3 n,
-                           std::uint8_t* out_i, std::uint32_t* out_l) {
+                           std::uint8_t* out_i, std::uint32_t* out_l, LevelZeroBounds* bounds = nullptr) {
   const int s = 1 << level;
   const ivec3 lo0 = first * s, hi0 = glm::min((first + n) * s, p.dims) - 1;  // inclusive level-0 box
   const std::vector<Capsule> caps = capsules_near(p, lo0, hi0);
@@ -260,6 +308,7 @@ void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec
     const ivec3 org(lo0.x, lo0.y, z0), ext(ext0.x, ext0.y, z1 - z0 + 1);
     const std::size_t count = std::size_t(ext.x) * ext.y * ext.z;
     slab.fill(caps, bins[std::size_t(zl)], org, ext);
+    if (bounds) bounds->add(slab.inten.data(), slab.label.data(), org, ext);
     ri.resize(count);
     rl.resize(count * 4);
     std::memcpy(ri.data(), slab.inten.data(), count);
@@ -448,13 +497,39 @@ void ProceduralNeuritesSource::synthesize(int level, ivec3 first, ivec3 n, std::
 
 void ProceduralNeuritesSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                                           std::span<std::byte> out_labels) const {
+  read(layout, id, out_intensity, out_labels, 0, nullptr);
+}
+
+// On the exact levels the bounds come from the level-0 voxels the read synthesises anyway; elsewhere
+// as bound_blocks gives them.
+void ProceduralNeuritesSource::read_brick_bounded(const BrickLayout& layout, BrickId id,
+                                                  std::span<std::byte> out_intensity, std::span<std::byte> out_labels,
+                                                  int block, std::vector<BlockMetadata>& bounds) const {
+  if (id.level() == 0 || method(id.level()) != Method::Exact) {
+    VolumeSource::read_brick_bounded(layout, id, out_intensity, out_labels, block, bounds);
+    return;
+  }
+  read(layout, id, out_intensity, out_labels, block, &bounds);
+}
+
+void ProceduralNeuritesSource::read(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                                    std::span<std::byte> out_labels, int block,
+                                    std::vector<BlockMetadata>* bounds) const {
   check_request(layout, id, out_intensity, out_labels);
   ivec3 first, n;
   brick_read_box(layout, id, first, n);
   const std::size_t count = std::size_t(n.x) * n.y * n.z;
   std::vector<std::uint8_t> inten(count);
   std::vector<std::uint32_t> labels(count);
-  synthesize(id.level(), first, n, inten.data(), labels.data());
+  if (bounds) {
+    // The read box (payload and apron) covers every culling block of the payload dilated by one voxel.
+    const std::vector<ivec3> blocks = brick_culling_blocks(layout, id, block);
+    LevelZeroBounds b(desc_.dims, layout.dims(id.level()), id.level(), block, blocks);
+    synthesize_and_reduce(params_of(desc_, seed_), pyramid_, id.level(), first, n, inten.data(), labels.data(), &b);
+    *bounds = b.take();
+  } else {
+    synthesize(id.level(), first, n, inten.data(), labels.data());
+  }
   fill_brick(layout, id, reinterpret_cast<const std::byte*>(inten.data()), first, n, 1, out_intensity);
   if (!out_labels.empty()) {
     fill_brick(layout, id, reinterpret_cast<const std::byte*>(labels.data()), first, n, 4, out_labels);
@@ -475,25 +550,17 @@ bool ProceduralNeuritesSource::bound_blocks(const BrickLayout& layout, int level
     return true;
   }
   // Each block's dilated box at the level, as level-0 voxels; all of them synthesised at once.
-  const int s = 1 << level;
-  std::vector<ivec3> lo(blocks.size()), hi(blocks.size());
-  ivec3 first(std::numeric_limits<int>::max()), end(0);
-  for (std::size_t i = 0; i < blocks.size(); ++i) {
-    ivec3 f, e;
-    dilated_block(layout.dims(level), blocks[i] * block, block, f, e);
-    lo[i] = f * s;
-    hi[i] = glm::min(e * s, desc_.dims);
-    first = glm::min(first, lo[i]);
-    end = glm::max(end, hi[i]);
-  }
+  LevelZeroBounds b(desc_.dims, layout.dims(level), level, block, blocks);
+  ivec3 first, end;
+  b.cover(first, end);
   const ivec3 n = end - first;
   const std::size_t count = std::size_t(n.x) * n.y * n.z;
   std::vector<std::uint8_t> inten(count);
   std::vector<std::uint32_t> labels(count);
   synthesize(0, first, n, inten.data(), labels.data());
-  const VolumeView iv{inten.data(), n, vec3(1.0f), VoxelType::U8};
-  const VolumeView lv{labels.data(), n, vec3(1.0f), VoxelType::U32};
-  for (std::size_t i = 0; i < blocks.size(); ++i) out[i] = compute_box_metadata(iv, iv, &lv, lo[i] - first, hi[i] - first);
+  b.add(inten.data(), labels.data(), first, n);
+  std::vector<BlockMetadata> ms = b.take();
+  std::move(ms.begin(), ms.end(), out.begin());
   return true;
 }
 

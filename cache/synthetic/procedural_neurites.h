@@ -31,7 +31,8 @@
 // level gets its brightness.
 //
 // Culling bounds (bound_blocks, DESIGN.md "Virtual memory"): on the exact levels 1-2, from the level-0
-// voxels below each block (synthesised as read_brick does); on the splatted levels >= 3, whose voxels
+// voxels below each block (synthesised as read_brick does; read_brick_bounded takes them from the
+// very voxels the read synthesises, so a loaded coarse brick costs one synthesis, not two); on the splatted levels >= 3, whose voxels
 // span 8+ level-0 voxels and whose blocks (128+ voxels across) all hold tubes, the whole u8 range
 // without labels listed — conservative, and what those blocks' data would give anyway.
 #pragma once
@@ -60,6 +61,9 @@ class ProceduralNeuritesSource final : public VolumeSource {
                   std::span<std::byte> out_labels) const override;
   bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
                     std::span<BlockMetadata> out) const override;
+  void read_brick_bounded(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                          std::span<std::byte> out_labels, int block,
+                          std::vector<BlockMetadata>& bounds) const override;
   PyramidKind pyramid() const override { return pyramid_; }
 
   std::uint32_t seed() const { return seed_; }
@@ -70,6 +74,10 @@ class ProceduralNeuritesSource final : public VolumeSource {
   void synthesize(int level, ivec3 first, ivec3 n, std::uint8_t* intensity, std::uint32_t* labels) const;
 
  private:
+  // read_brick; with `bounds`, read_brick_bounded on an exact level.
+  void read(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity, std::span<std::byte> out_labels,
+            int block, std::vector<BlockMetadata>* bounds) const;
+
   VolumeDesc desc_;
   std::uint32_t seed_;
   std::string name_;

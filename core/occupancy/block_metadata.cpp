@@ -4,8 +4,9 @@
 
 
 #include <algorithm>
-#include <limits>
 #include <atomic>
+#include <iterator>
+#include <limits>
 #include <string>
 #include <type_traits>
 
@@ -106,6 +107,19 @@ BlockMetadata compute_block_metadata(const BlockGrid& grid, const VolumeView& in
   SL_CHECK(intensity.dims == grid.dims);
   SL_CHECK(grid.inside(ivec3(bx, by, bz)));
   return compute_block_metadata(intensity, labels, ivec3(0), grid.dims, ivec3(bx, by, bz) * grid.block, grid.block);
+}
+
+void merge_box_metadata(BlockMetadata& into, const BlockMetadata& more) {
+  SL_CHECK(into.computed && more.computed && into.has_labels == more.has_labels);
+  // (NaN ranges are the infinite ones, which min and max keep)
+  into.min = std::min(into.min, more.min);
+  into.max = std::max(into.max, more.max);
+  if (!more.has_labels) return;
+  std::vector<std::uint32_t> ids;
+  ids.reserve(into.labels.size() + more.labels.size());
+  std::set_union(into.labels.begin(), into.labels.end(), more.labels.begin(), more.labels.end(),
+                 std::back_inserter(ids));
+  into.labels = std::move(ids);
 }
 
 BlockMetadataTable compute_all_block_metadata(const BlockGrid& grid, const VolumeView& intensity,

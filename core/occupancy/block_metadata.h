@@ -86,6 +86,11 @@ void dilated_block(ivec3 dims, ivec3 lo, int block, ivec3& first, ivec3& end);
 BlockMetadata compute_box_metadata(const VolumeView& low, const VolumeView& high, const VolumeView* labels,
                                    ivec3 first, ivec3 end);
 
+// The metadata of two boxes' union: `into` widened by `more` (ranges and label sets; both computed,
+// both listing labels or neither). What compute_box_metadata gives for a box, merged from a cover of
+// it by parts, equals what it gives for the whole.
+void merge_box_metadata(BlockMetadata& into, const BlockMetadata& more);
+
 // A culling block's metadata from its own voxels, in core and out of core: the block of edge
 // `block` whose first voxel is `lo`, in a volume (or pyramid level) of `dims` voxels, dilated by one
 // voxel and clamped to the volume (dilated_block). The views hold the voxels from volume voxel

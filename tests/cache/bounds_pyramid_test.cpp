@@ -184,5 +184,68 @@ TEST(BoundsPyramid, ProceduralSourceBoundsItsLevels) {
   EXPECT_TRUE(tubes) << "blocks without a tube test nothing";
 }
 
+// A coarse brick read with its bounds (what the loader does): the same voxels as read_brick, and the
+// same bounds as bound_blocks over the brick's culling blocks — on the exact levels taken from the
+// level-0 voxels the read synthesises slab by slab, elsewhere from bound_blocks itself. Edge bricks
+// (clamped apron, partial blocks) included; both pyramids.
+TEST(BoundsPyramid, ProceduralReadWithBoundsEqualsReadThenBounds) {
+  for (const PyramidKind kind : {PyramidKind::Mean, PyramidKind::Max}) {
+    const ProceduralNeuritesSource src(ivec3(150, 90, 70), 5, "procedural:neurites", kind);
+    const BrickLayout layout = BrickLayout::make(src.desc(), 16, src.name());
+    const std::size_t n = layout.stored_voxels();
+    bool tubes = false;
+    for (int l = 0; l < layout.levels; ++l) {
+      const ivec3 bricks = layout.bricks(l);
+      for (const ivec3 c : {ivec3(0), bricks / 2, bricks - 1}) {
+        for (const int block : {8, 16}) {
+          const BrickId id = BrickId::pack(l, c);
+          SCOPED_TRACE(to_string(id) + ", block " + std::to_string(block));
+          std::vector<std::byte> i1(n), l1(n * 4), i2(n), l2(n * 4);
+          src.read_brick(layout, id, i1, l1);
+          std::vector<BlockMetadata> bounds;
+          src.read_brick_bounded(layout, id, i2, l2, block, bounds);
+          EXPECT_EQ(i1, i2);
+          EXPECT_EQ(l1, l2);
+          if (l == 0) {
+            EXPECT_TRUE(bounds.empty());
+            continue;
+          }
+          const std::vector<ivec3> blocks = brick_culling_blocks(layout, id, block);
+          std::vector<BlockMetadata> want(blocks.size());
+          ASSERT_TRUE(src.bound_blocks(layout, l, block, blocks, want));
+          ASSERT_EQ(bounds.size(), want.size());
+          for (std::size_t b = 0; b < want.size(); ++b) {
+            EXPECT_EQ(bounds[b].computed, want[b].computed);
+            EXPECT_EQ(bounds[b].min, want[b].min);
+            EXPECT_EQ(bounds[b].max, want[b].max);
+            EXPECT_EQ(bounds[b].has_labels, want[b].has_labels);
+            EXPECT_EQ(bounds[b].labels, want[b].labels);
+            tubes = tubes || (want[b].has_labels && want[b].labels.size() > 1);
+          }
+        }
+      }
+    }
+    EXPECT_TRUE(tubes) << "bricks without a labelled tube test nothing";
+  }
+}
+
+// The parts of a box merge to the box: ranges and label sets.
+TEST(BoundsPyramid, MergedPartsEqualTheWhole) {
+  const ProceduralNeuritesSource src(ivec3(160, 96, 80), 7);
+  const ivec3 n = src.desc().dims;
+  Volume v(VolumeDesc{n, vec3(1.0f), VoxelType::U8}), lab(VolumeDesc{n, vec3(1.0f), VoxelType::U32});
+  src.synthesize(0, ivec3(0), n, v.as<std::uint8_t>(), lab.as<std::uint32_t>());
+  const VolumeView iv = v.view(), lv = lab.view();
+  const BlockMetadata whole = compute_box_metadata(iv, iv, &lv, ivec3(0), n);
+  for (const int cut : {1, 7, 40, 79}) {
+    BlockMetadata merged = compute_box_metadata(iv, iv, &lv, ivec3(0), ivec3(n.x, n.y, cut));
+    merge_box_metadata(merged, compute_box_metadata(iv, iv, &lv, ivec3(0, 0, cut), n));
+    EXPECT_EQ(merged.min, whole.min);
+    EXPECT_EQ(merged.max, whole.max);
+    EXPECT_EQ(merged.labels, whole.labels);
+  }
+  EXPECT_GT(whole.labels.size(), 2u);
+}
+
 }  // namespace
 }  // namespace sl

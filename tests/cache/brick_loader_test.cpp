@@ -161,7 +161,7 @@ TEST(BrickLoader, CollectNeverWaitsForLoads) {
 }
 
 // Prefetch: a prefetch starts only when no request waits, and requesting a queued
-// prefetch promotes it ahead of the other prefetches.
+// prefetch promotes it ahead of the other prefetches (and, the latest request, of earlier ones).
 TEST(BrickLoader, PrefetchWaitsForRequestsAndARequestPromotesIt) {
   const auto gated = std::make_shared<GatedSource>(neurites_source());
   const BrickLayout layout = BrickLayout::make(gated->desc(), 16);
@@ -177,9 +177,66 @@ TEST(BrickLoader, PrefetchWaitsForRequestsAndARequestPromotesIt) {
   EXPECT_EQ(loader.pending(), 5u);
   gated->open();
   loader.wait_idle();
-  EXPECT_EQ(gated->order, (std::vector<BrickId>{a, b, p3, p1, p2}));
+  EXPECT_EQ(gated->order, (std::vector<BrickId>{a, p3, b, p1, p2}));
   EXPECT_EQ(loader.collect(10).bricks.size(), 5u);
   EXPECT_EQ(loader.pending(), 0u);
+}
+
+// The latest request orders the queue (the renderer names every brick its last frame missed, nearest
+// first): its ids, new or queued before, load first and in its order; queued ids it does not name
+// wait behind, in their order, never dropped; collect hands bricks out in the order they loaded.
+TEST(BrickLoader, TheLatestRequestLoadsFirstInItsOrder) {
+  const auto gated = std::make_shared<GatedSource>(neurites_source());
+  const BrickLayout layout = BrickLayout::make(gated->desc(), 16);
+  BrickLoader loader(gated, layout, 1);
+  const auto id = [](int x, int y, int z) { return BrickId::pack(0, {x, y, z}); };
+  const BrickId a = id(0, 0, 0), b = id(0, 1, 0), c = id(2, 0, 0), d = id(0, 0, 1), e = id(2, 1, 0), f = id(0, 1, 1);
+  EXPECT_EQ(loader.request(std::vector<BrickId>{a}), 1u);
+  while (gated->entered.load() < 1) std::this_thread::yield();  // the one worker holds `a`
+  EXPECT_EQ(loader.request(std::vector<BrickId>{b, c, d}), 3u);
+  EXPECT_EQ(loader.request(std::vector<BrickId>{e, d, a, c, e}), 1u);  // only e is new
+  EXPECT_EQ(loader.prefetch(std::vector<BrickId>{f}), 1u);
+  EXPECT_EQ(loader.pending(), 6u);
+  gated->open();
+  loader.wait_idle();
+  EXPECT_EQ(gated->order, (std::vector<BrickId>{a, e, d, c, b, f}));
+  std::vector<BrickId> got;
+  for (const LoadedBrick& lb : loader.collect(10).bricks) got.push_back(lb.id);
+  EXPECT_EQ(got, gated->order);
+}
+
+// Given the culling block, coarse bricks arrive with their blocks' bounds (the source's
+// read_brick_bounded); level 0 bricks and a loader without a block carry none.
+TEST(BrickLoader, CoarseBricksArriveWithTheirBounds) {
+  const auto src = neurites_source();
+  const BrickLayout layout = BrickLayout::make(src->desc(), 16);
+  const std::vector<BrickId> ids = all_bricks(layout);
+  for (const int block : {0, 8}) {
+    BrickLoader loader(src, layout, 2, {}, BrickLoader::kDefaultFinishedBytes, block);
+    loader.request(ids);
+    loader.wait_idle();
+    std::size_t coarse = 0;
+    for (const LoadedBrick& b : loader.collect(ids.size()).bricks) {
+      SCOPED_TRACE(to_string(b.id) + ", block " + std::to_string(block));
+      if (block == 0 || b.id.level() == 0) {
+        EXPECT_TRUE(b.bounds.empty());
+        continue;
+      }
+      const std::vector<ivec3> blocks = brick_culling_blocks(layout, b.id, block);
+      std::vector<BlockMetadata> want(blocks.size());
+      ASSERT_TRUE(src->bound_blocks(layout, b.id.level(), block, blocks, want));
+      ASSERT_EQ(b.bounds.size(), want.size());
+      for (std::size_t i = 0; i < want.size(); ++i) {
+        EXPECT_EQ(b.bounds[i].min, want[i].min);
+        EXPECT_EQ(b.bounds[i].max, want[i].max);
+        EXPECT_EQ(b.bounds[i].labels, want[i].labels);
+      }
+      ++coarse;
+    }
+    if (block > 0) {
+      EXPECT_GT(coarse, 0u);
+    }
+  }
 }
 
 TEST(BrickLoader, FailedBrickReportedOnceAndNeverRetried) {
