@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "apps/bench/bench_run.h"
+#include "apps/bench/loader.h"
 #include "apps/commands.h"
 #include "apps/render_options.h"
 #include "cache/stores/counting_byte_store.h"
@@ -82,6 +83,7 @@ int bench(const BenchOptions& o, Distributed* dist) {
   if (!o.csv.empty()) outputs.add(o.csv);
   if (!o.json.empty()) outputs.add(o.json);
   const ThreadLimit threads(ro.threads);
+  if (o.loader) return bench_loader(o, outputs);
 
   const SourceScene scene = load_source_scene(ro.scene, ooc);
   RenderSettings rs = checked.settings;
@@ -104,6 +106,35 @@ int run_bench(const BenchOptions& o) {
   if (o.render.distributed) return run_distributed([&](Distributed& d) { return bench(o, &d); });
 #endif
   return bench(o, nullptr);
+}
+
+// A whole number in [lo, hi], checked while parsing (exit 2, as for every malformed value).
+CLI::Validator whole_number_in(long long lo, long long hi) {
+  return CLI::Validator(
+      [lo, hi](const std::string& v) {
+        std::size_t end = 0;
+        long long x = 0;
+        try {
+          x = std::stoll(v, &end);
+        } catch (const std::exception&) {
+          end = 0;
+        }
+        if (end == 0 || end != v.size() || x < lo || x > hi) {
+          return "must be a whole number from " + std::to_string(lo) + " to " + std::to_string(hi) + ", not '" + v + "'";
+        }
+        return std::string();
+      },
+      "");  // the help already says the range
+}
+
+// --loader reads bricks the way the out-of-core renderer does, so it needs a volume that is rendered
+// out of core; checked with the other option errors, before any data is read.
+void check_loader_options(const BenchOptions& o) {
+  if (!o.loader) return;
+  if (o.render.distributed) throw CLI::ValidationError("--loader", "times one process's loader: not with --distributed");
+  if (!o.render.out_of_core()) {
+    throw CLI::ValidationError("--loader", "reads bricks out of core: add --cache-mb (or give a procedural volume)");
+  }
 }
 
 }  // namespace
@@ -136,6 +167,24 @@ Runner add_bench_command(CLI::App& app) {
   c->add_option("--json", o->json, "Summary JSON");
   c->add_option("--max-frames-per-view", o->max_frames_per_view, "Out of core: frames per view at most")
       ->capture_default_str();
+  CLI::Option* loader = c->add_flag(
+      "--loader",
+      o->loader,
+      "Time the brick loader instead of rendering: --loader-passes passes, each a fresh loader with --threads "
+      "workers (default the renderer's, min(4, cores)) reading --loader-bricks level-0 bricks nearest the centre, "
+      "all asked for at once; per pass and their median: bricks/s, MB/s decoded, latency from request to collect "
+      "(p50, p95), failures; --json, and --csv a row per pass. Needs a volume read out of core (--cache-mb, or a "
+      "procedural one); the path and method options do not apply");
+  c->add_option("--loader-bricks", o->loader_bricks,
+                "--loader: level-0 bricks per pass, 1 to 10000000 (all of them when the volume has fewer)")
+      ->capture_default_str()
+      ->check(whole_number_in(1, kMaxLoaderBricks))
+      ->needs(loader);
+  c->add_option("--loader-passes", o->loader_passes, "--loader: passes, 1 to 100; a streamed volume is reopened for each")
+      ->capture_default_str()
+      ->check(whole_number_in(1, kMaxLoaderPasses))
+      ->needs(loader);
+  c->parse_complete_callback([o] { check_loader_options(*o); });
   return [o, methods, warmup, kind] {
     o->methods_given = methods->count() > 0;
     o->warmup_given = warmup->count() > 0;

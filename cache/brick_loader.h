@@ -114,6 +114,8 @@ class BrickLoader {
   LoaderCounts counts() const;
   // Finished bricks the bound lets wait for collect() (and the reads in flight count against it).
   std::size_t finished_capacity() const { return finished_cap_; }
+  // Worker threads (the constructor's `threads`, 0 resolved).
+  int threads() const { return int(workers_.size()); }
   // Blocks until nothing is queued, waiting for a retry or loading — or until the finished bricks
   // fill their bound, so that only a collect() lets the loader go on.
   void wait_idle();

@@ -44,12 +44,16 @@ bool BenchRun::converged(const SceneRenderer& r) const {
   return c;
 }
 
+void write_reports(const BenchOptions& o, OutputFiles& outputs, const std::string& csv, const std::string& json) {
+  if (!o.csv.empty()) outputs.write(o.csv, [&](const std::string& p) { write_file_atomic(p, csv); });
+  if (!o.json.empty()) outputs.write(o.json, [&](const std::string& p) { write_file_atomic(p, json); });
+}
+
 void write_reports(BenchRun& b, const std::string& csv, const std::string& json) {
 #if SL_HAVE_MPI
   if (b.dist && !b.dist->root()) return;
 #endif
-  if (!b.o.csv.empty()) b.outputs.write(b.o.csv, [&](const std::string& p) { write_file_atomic(p, csv); });
-  if (!b.o.json.empty()) b.outputs.write(b.o.json, [&](const std::string& p) { write_file_atomic(p, json); });
+  write_reports(b.o, b.outputs, csv, json);
 }
 
 std::vector<int> parse_frame_list(const std::string& s) {

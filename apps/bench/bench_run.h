@@ -32,6 +32,10 @@ struct BenchOptions {
   bool path_kind_given = false;
   std::string rss_at;               // out of core: frame numbers (1-based, per method) to report RSS at
   int max_frames = 0;               // out of core: frames per method at most (0: the whole path)
+  // --loader: time the brick loader alone instead of rendering (apps/bench/loader.h).
+  bool loader = false;
+  int loader_bricks = 4096;  // level-0 bricks per pass, centre first
+  int loader_passes = 5;     // passes, each with a fresh loader
 };
 
 // Everything a bench run shares, whichever path renders it.
@@ -59,7 +63,9 @@ struct BenchRun {
   bool converged(const SceneRenderer& r) const;
 };
 
-// The CSV and JSON reports (those asked for), as one set: a failing second one removes the first.
+// The CSV and JSON reports (those asked for, o.csv and o.json), as one set: a failing second one
+// removes the first. Distributed, rank 0 writes them.
+void write_reports(const BenchOptions& o, OutputFiles& outputs, const std::string& csv, const std::string& json);
 void write_reports(BenchRun& b, const std::string& csv, const std::string& json);
 
 // `--rss-at 100,1000,2000`: ascending frame numbers >= 1.
