@@ -125,7 +125,7 @@ struct BrickLayout {
   SL_HOST_DEVICE BrickId brick_at(int level, const vec3& p) const {
     const vec3 u = p * level_inv_spacing(level);
     const ivec3 d = level_dims[level];
-    ivec3 v(int(glm::floor(u.x)), int(glm::floor(u.y)), int(glm::floor(u.z)));
+    ivec3 v = floor_to_int(u);
     v = glm::clamp(v, ivec3(0), d - 1);
     return brick_of_voxel(level, v);
   }

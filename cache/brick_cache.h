@@ -56,7 +56,7 @@ struct SlotSampler {
   // Label of the voxel containing p (nearest neighbour), as DenseGrid::label_at.
   SL_HOST_DEVICE std::uint32_t label_at(const vec3& p) const {
     const vec3 u = p * inv_spacing;
-    ivec3 v(int(glm::floor(u.x)), int(glm::floor(u.y)), int(glm::floor(u.z)));
+    ivec3 v = floor_to_int(u);
     v = glm::clamp(v, ivec3(0), dims - 1) - first;
     v = glm::clamp(v, ivec3(0), ivec3(stored - 1));
     return std::uint32_t(data[(std::int64_t(v.z) * stored + v.y) * stored + v.x]);

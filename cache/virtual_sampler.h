@@ -9,6 +9,7 @@
 
 #if !defined(__CUDA_ARCH__)
 #include <atomic>
+#include <type_traits>
 #endif
 
 #include "cache/brick.h"
@@ -18,6 +19,7 @@
 #include "core/util/config.h"
 #include "core/recon/gradient.h"
 #include "core/cast/raycast.h"
+#include "core/cast/sample_batch.h"
 
 namespace sl {
 
@@ -118,7 +120,7 @@ struct VirtualSampler {
     // brick_at's voxel, step for step.
     const vec3 u = p * cur.inv_spacing;
     const ivec3 d = layout->level_dims[c.level];
-    ivec3 v(int(glm::floor(u.x)), int(glm::floor(u.y)), int(glm::floor(u.z)));
+    ivec3 v = floor_to_int(u);
     v = glm::clamp(v, ivec3(0), d - 1);
     if (v.x >= cur.lo.x && v.x < cur.hi.x && v.y >= cur.lo.y && v.y < cur.hi.y && v.z >= cur.lo.z &&
         v.z < cur.hi.z) {
@@ -218,11 +220,42 @@ struct VirtualSampler {
   SL_HOST_DEVICE SL_INLINE bool in_cursor(const vec3& p) const {
     const vec3 u = p * cur.inv_spacing;
     const ivec3 d = layout->level_dims[cur.level];
-    ivec3 v(int(glm::floor(u.x)), int(glm::floor(u.y)), int(glm::floor(u.z)));
+    ivec3 v = floor_to_int(u);
     v = glm::clamp(v, ivec3(0), d - 1);
     return v.x >= cur.lo.x && v.x < cur.hi.x && v.y >= cur.lo.y && v.y < cur.hi.y && v.z >= cur.lo.z &&
            v.z < cur.hi.z;
   }
+
+  // Where the ray leaves the cursor's wanted brick.
+  SL_HOST_DEVICE SL_INLINE float cursor_exit(const Ray& ray, const vec3& inv_dir) const {
+    return box_exit(ray, inv_dir, cur.lo, cur.hi, layout->level_spacing(cur.level));
+  }
+
+#if !defined(__CUDA_ARCH__)
+  // The cursor's slot as the CPU batch's volume (core/cast/sample_batch.h, DvrBatchArgs::slot), where the
+  // wanted brick itself is resident with its voxel mask and its voxels are u8 or u16: the batch reads
+  // the voxels and mask bits sample() and mask_visible() read, with the same arithmetic. False elsewhere.
+  bool slot_batch(DvrBatchArgs& b) const {
+    if constexpr (!(std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>)) {
+      (void)b;
+      return false;
+    } else {
+      if (!cur.complete || !cur.entry.is_resident() || cur.mask == nullptr) return false;
+      const SlotSampler<T>& v = cur.voxels;
+      b.slot = true;
+      b.data = v.data;
+      b.elem_size = int(sizeof(T));
+      b.dims = ivec3(v.stored);
+      b.first = v.first;
+      b.inv_spacing = v.inv_spacing;
+      b.hi = vec3(v.dims - 1);
+      b.bytes = std::int64_t(v.stored) * v.stored * v.stored * std::int64_t(sizeof(T));
+      b.bricks = nullptr;
+      b.mask_bits = cur.mask;
+      return true;
+    }
+  }
+#endif
 
   // The shortfall serve() would count for samples t_entry + j * dt, j = k, k + 2^s, ... < next, all
   // served by the cursor's entry (a leap passes over them).

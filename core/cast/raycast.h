@@ -16,6 +16,7 @@
 #include "core/util/ray.h"
 #include "core/scene/render_mode.h"
 #include "core/recon/sampling.h"
+#include "core/cast/sample_batch.h"
 #include "core/cast/shading.h"
 #include "core/scene/transfer_function.h"
 
@@ -381,6 +382,16 @@ struct RayCaster {
     std::uint64_t leapt = 0;
     bool alive = true;
     const bool strided = p.strided();
+#if !defined(__CUDA_ARCH__)
+    // On the CPU, DVR's samples in a resident brick are found and taken eight at a time from its slot
+    // (slot_run): the samples, values, composite and counts of the one-by-one walk.
+    bool batch = false;
+    int slot_fits = -1;  // whether the slots fit the batch (they all have one size): -1 not asked yet
+    if constexpr (requires(DvrBatchArgs& b) { volume.slot_batch(b); }) {
+      batch = p.simd && p.mode == RenderMode::Dvr && !p.lighting.enabled && p.tf.table != nullptr &&
+              sample_batch_available();
+    }
+#endif
     if (strided && k < k1) k = taken_from(k, t_entry);
     for (; k < k1; k = strided ? taken_from(k + 1, t_entry) : k + 1) {
       const float t = t_entry + float(k) * p.dt;
@@ -388,6 +399,23 @@ struct RayCaster {
         if (lod_varies) ctx.level = p.lod.level_at(t);
         float t_exit, uniform = 0.0f;
         const auto cell = volume.fine_cell(ray, inv_dir, ray.at(t), ctx, t_exit, uniform);
+#if !defined(__CUDA_ARCH__)
+        if constexpr (requires(DvrBatchArgs& b) { volume.slot_batch(b); }) {
+          // In a resident brick the scan of its mask crosses clear cells about as fast as the leaps.
+          if (batch && (cell == Sampler::kOccupied || cell == Sampler::kClear)) {
+            int stop = k;
+            const int r = slot_run(ray, inv_dir, t_entry, k, k1, acc, ctx, clear_v, lod_varies, stop, leapt, slot_fits);
+            if (r > 0) {  // [k, stop) taken: on from stop, asking its cell afresh
+              k = stop - 1;
+              continue;
+            }
+            if (r < 0) {
+              alive = false;
+              break;
+            }
+          }
+        }
+#endif
         if (cell == Sampler::kOccupied) {
           occupied_until = t_exit;
         } else if (cell == Sampler::kClear || (cell == Sampler::kUniform && clear_value(uniform, clear_v))) {
@@ -423,6 +451,46 @@ struct RayCaster {
     volume.count_left_out(leapt);
     return alive;
   }
+
+#if !defined(__CUDA_ARCH__)
+  // march_leaping's samples from k (in an occupied cell of the cursor's brick, which must be the wanted
+  // one, resident, with its voxel mask) to the brick's exit, the sample grid not strided at this level
+  // and the level the same throughout: those whose mask bit is set found and taken eight at a time from
+  // the slot (BatchMarch::march_slot), the rest left out, the shortfall counted as sample() would.
+  // 1: taken, the ray goes on from `stop`; -1: it terminated (`stop`: one past its last sample);
+  // 0: the batch does not apply here (nothing done). `fits`: whether the slots fit the batch (-1: ask).
+  int slot_run(const Ray& ray, const vec3& inv_dir, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx,
+               float& clear_v, bool lod_varies, int& stop, std::uint64_t& leapt, int& fits) const {
+    if (p.strided() && p.lod.stride_log2(ctx.level) != 0) return 0;
+    // The samples in the brick: a ray's voxel coordinates are monotonic in t, so with k and end - 1 in
+    // it, every sample between is; rounding may leave one past the exit plane in it (the next run's).
+    int end = sample_index(volume.cursor_exit(ray, inv_dir), t_entry, p.inv_dt);
+    end = end < k1 ? end : k1;
+    while (end > k + 1 && !volume.in_cursor(ray.at(t_entry + float(end - 1) * p.dt))) --end;
+    if (end - k < BatchMarch<Sampler>::kMinRun) return 0;
+    if (lod_varies && p.lod.level_at(t_entry + float(end - 1) * p.dt) != ctx.level) return 0;
+    BatchMarch<Sampler> run(*this);
+    DvrBatchArgs& b = run.b;
+    if (!volume.slot_batch(b)) return 0;
+    b.dt = p.dt;
+    b.tf_table = &p.tf.table[0].x;
+    b.tf_size = p.tf.size;
+    b.tf_vmin = p.tf.vmin;
+    b.tf_inv_step = p.tf.inv_step;
+    if (fits < 0) fits = sample_batch_fits(b) ? 1 : 0;
+    if (fits == 0) return 0;
+    b.origin = ray.origin;
+    b.dir = ray.dir;
+    b.t_entry = t_entry;
+    run.ok = true;
+    const std::uint32_t taken = acc.samples;
+    const bool alive = run.march_slot(ray, t_entry, k, end, acc, ctx, clear_v, stop);
+    // Every sample visited was taken or left out, as the one-by-one walk counts them.
+    leapt += std::uint64_t(stop - k) - (acc.samples - taken);
+    volume.count_run(ray, t_entry, p.dt, k, stop, 0, ctx);
+    return alive ? 1 : -1;
+  }
+#endif
 
   // Whether a sample of value v composites nothing (DVR, labels: zero opacity), as take_sample
   // decides it; DVR remembers it as its last clear value.

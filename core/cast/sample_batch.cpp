@@ -28,6 +28,7 @@ bool sample_batch_fits(const DvrBatchArgs& a) {
   if (a.dims.x <= 0 || a.dims.y <= 0 || a.dims.z <= 0 || a.bytes < 4 || a.bytes > kLimit) return false;
   if (std::int64_t(a.dims.x) * a.dims.y * a.dims.z * a.elem_size != a.bytes) return false;
   if (a.mask_bits && std::int64_t(a.mask_plane_words) * a.dims.z * 2 > kLimit) return false;
+  if (a.slot && a.bricks) return false;
   if (a.bricks && (!BrickedVolume::supported(a.dims, a.elem_size) || a.brick_counts != BrickedVolume::brick_counts(a.dims))) {
     return false;
   }
@@ -88,18 +89,50 @@ SL_AVX2 __m256 consecutive(int k) {
   return _mm256_cvtepi32_ps(_mm256_add_epi32(_mm256_set1_epi32(k), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7)));
 }
 
-// The live lanes whose voxel-mask bit is set (VoxelMaskView::visible_coord).
+// The 32-bit word and the bit in it of the voxel-mask bit of the lanes' voxels (x, y, z), in the mask's
+// own voxels: in core, the 64-bit word z * plane + y * row + (x >> 6), bit x & 63, read as its 32-bit
+// half x >> 5 of the little-endian pair, bit x & 31; a slot's packed mask, bit (z * dims.y + y) * dims.x + x.
+template <bool kSlot>
+SL_AVX2 void mask_word(const DvrBatchArgs& a, __m256i x, __m256i y, __m256i z, __m256i& word, __m256i& bit) {
+  if constexpr (kSlot) {
+    const __m256i b = _mm256_add_epi32(
+        _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, _mm256_set1_epi32(a.dims.y)), y),
+                           _mm256_set1_epi32(a.dims.x)),
+        x);
+    word = _mm256_srli_epi32(b, 5);
+    bit = _mm256_and_si256(b, _mm256_set1_epi32(31));
+  } else {
+    word = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(z, _mm256_set1_epi32(2 * a.mask_plane_words)),
+                                             _mm256_mullo_epi32(y, _mm256_set1_epi32(2 * a.mask_row_words))),
+                            _mm256_srli_epi32(x, 5));
+    bit = _mm256_and_si256(x, _mm256_set1_epi32(31));
+  }
+}
+
+// The lanes' voxels in the data's (and the mask's) own voxels: less a slot's first voxel.
+template <bool kSlot>
+SL_AVX2 void local_voxels(const DvrBatchArgs& a, const Lanes& l, __m256i& x, __m256i& y, __m256i& z) {
+  if constexpr (kSlot) {
+    x = _mm256_sub_epi32(l.x0, _mm256_set1_epi32(a.first.x));
+    y = _mm256_sub_epi32(l.y0, _mm256_set1_epi32(a.first.y));
+    z = _mm256_sub_epi32(l.z0, _mm256_set1_epi32(a.first.z));
+  } else {
+    x = l.x0;
+    y = l.y0;
+    z = l.z0;
+  }
+}
+
+// The live lanes whose voxel-mask bit is set (VoxelMaskView::visible_coord; SlotSampler::mask_visible).
+template <bool kSlot>
 SL_AVX2 __m256i mask_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live) {
-  // The 64-bit word z * plane + y * row + (x >> 6), bit x & 63, read as its 32-bit half x >> 5 of
-  // the little-endian pair, bit x & 31.
-  const __m256i w = _mm256_add_epi32(
-      _mm256_add_epi32(_mm256_mullo_epi32(l.z0, _mm256_set1_epi32(2 * a.mask_plane_words)),
-                       _mm256_mullo_epi32(l.y0, _mm256_set1_epi32(2 * a.mask_row_words))),
-      _mm256_srli_epi32(l.x0, 5));
+  __m256i x, y, z, w, sh;
+  local_voxels<kSlot>(a, l, x, y, z);
+  mask_word<kSlot>(a, x, y, z, w, sh);
   const __m256i words =
       _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), reinterpret_cast<const int*>(a.mask_bits), w, live, 4);
   const __m256i one = _mm256_set1_epi32(1);
-  const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(l.x0, _mm256_set1_epi32(31))), one);
+  const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, sh), one);
   return _mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one));
 }
 
@@ -138,10 +171,9 @@ SL_AVX2 int classify_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i live, 
 // from bricks, whose allocation has room for the last gather). The gathers fetch the lanes of `fetch`
 // (a superset of `live`): under the voxel mask, all the batch's positions, so that they do not wait for
 // the mask's gather (their lane masks would depend on its result); only `live` lanes are reported.
-template <int kElem>
+template <int kElem, bool kSlot>
 SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i fetch, __m256i live, DvrBatchOut& out) {
   const __m256 ux = l.ux, uy = l.uy, uz = l.uz;
-  const __m256i x0 = l.x0, y0 = l.y0, z0 = l.z0;
   const int visible = _mm256_movemask_ps(_mm256_castsi256_ps(live));
   if (visible == 0) {
     out.opaque = 0u;
@@ -150,9 +182,13 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i fetch, _
 
   // DenseGrid::sample_coord: the four x-rows of the cell, each one 4-byte gather holding (x0, x0 + 1),
   // blended along x, then y, then z.
-  const __m256 fx = _mm256_sub_ps(ux, _mm256_cvtepi32_ps(x0));
-  const __m256 fy = _mm256_sub_ps(uy, _mm256_cvtepi32_ps(y0));
-  const __m256 fz = _mm256_sub_ps(uz, _mm256_cvtepi32_ps(z0));
+  const __m256 fx = _mm256_sub_ps(ux, _mm256_cvtepi32_ps(l.x0));
+  const __m256 fy = _mm256_sub_ps(uy, _mm256_cvtepi32_ps(l.y0));
+  const __m256 fz = _mm256_sub_ps(uz, _mm256_cvtepi32_ps(l.z0));
+  // The voxel indices into the data (a slot's: its own; a slot holds x0 + 1 in its apron, so the
+  // clamps below never apply there).
+  __m256i x0, y0, z0;
+  local_voxels<kSlot>(a, l, x0, y0, z0);
   __m256i off, dy, dz, has_dx;
   const void* data;
   if (a.bricks) {
@@ -203,18 +239,18 @@ SL_AVX2 int sample_lanes(const DvrBatchArgs& a, const Lanes& l, __m256i fetch, _
   return classify_lanes(a, l, fetch, visible, _mm256_add_ps(c0, _mm256_mul_ps(fz, _mm256_sub_ps(c1, c0))), out);
 }
 
-template <int kElem>
+template <int kElem, bool kSlot>
 __attribute__((target("avx2"))) int dvr_batch_avx2(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
   const Lanes l = lanes_at(a, consecutive(k));
   const __m256i live = first_lanes(n);
-  return sample_lanes<kElem>(a, l, live, a.mask_bits ? mask_lanes(a, l, live) : live, out);
+  return sample_lanes<kElem, kSlot>(a, l, live, a.mask_bits ? mask_lanes<kSlot>(a, l, live) : live, out);
 }
 
-template <int kElem>
+template <int kElem, bool kSlot>
 __attribute__((target("avx2"))) int dvr_batch_at_avx2(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) {
   const __m256i kv = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(ks));
   const __m256i live = first_lanes(n);
-  return sample_lanes<kElem>(a, lanes_at(a, _mm256_cvtepi32_ps(kv)), live, live, out);
+  return sample_lanes<kElem, kSlot>(a, lanes_at(a, _mm256_cvtepi32_ps(kv)), live, live, out);
 }
 
 // For each 8-bit lane mask, the set lanes' numbers in ascending order, 4 bits each (compaction).
@@ -233,6 +269,7 @@ struct CompactTable {
 };
 constexpr CompactTable kCompact;
 
+template <bool kSlot>
 __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs& a, const SampleSpan* spans,
                                                               int n, int& s_io, int& k_io, int* ks, int queued,
                                                               int want) {
@@ -244,7 +281,9 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
                iz = _mm256_set1_ps(a.inv_spacing.z);
   const __m256 hx = _mm256_set1_ps(a.hi.x), hy = _mm256_set1_ps(a.hi.y), hz = _mm256_set1_ps(a.hi.z);
   const __m256 half = _mm256_set1_ps(0.5f), zero = _mm256_setzero_ps();
-  const __m256i plane = _mm256_set1_epi32(2 * a.mask_plane_words), row = _mm256_set1_epi32(2 * a.mask_row_words);
+  const __m256i plane = _mm256_set1_epi32(kSlot ? a.dims.y : 2 * a.mask_plane_words),
+                row = _mm256_set1_epi32(kSlot ? a.dims.x : 2 * a.mask_row_words);
+  const __m256i fx = _mm256_set1_epi32(a.first.x), fy = _mm256_set1_epi32(a.first.y), fz = _mm256_set1_epi32(a.first.z);
   const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7), one = _mm256_set1_epi32(1),
                 low5 = _mm256_set1_epi32(31), nib = _mm256_set1_epi32(15);
   const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
@@ -261,13 +300,27 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
           _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oy, _mm256_mul_ps(t, dy)), iy), half), zero), hy);
       const __m256 uz = _mm256_min_ps(
           _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(oz, _mm256_mul_ps(t, dz)), iz), half), zero), hz);
-      const __m256i x0 = _mm256_cvttps_epi32(ux);
-      const __m256i w = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(uz), plane),
-                                                          _mm256_mullo_epi32(_mm256_cvttps_epi32(uy), row)),
-                                         _mm256_srli_epi32(x0, 5));
+      __m256i w, sh;
+      if constexpr (kSlot) {
+        // mask_word<true>, with the constants hoisted: bit (z * dims.y + y) * dims.x + x of the local voxel.
+        const __m256i x0 = _mm256_sub_epi32(_mm256_cvttps_epi32(ux), fx);
+        const __m256i b = _mm256_add_epi32(
+            _mm256_mullo_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_sub_epi32(_mm256_cvttps_epi32(uz), fz), plane),
+                                                _mm256_sub_epi32(_mm256_cvttps_epi32(uy), fy)),
+                               row),
+            x0);
+        w = _mm256_srli_epi32(b, 5);
+        sh = _mm256_and_si256(b, low5);
+      } else {
+        const __m256i x0 = _mm256_cvttps_epi32(ux);
+        w = _mm256_add_epi32(_mm256_add_epi32(_mm256_mullo_epi32(_mm256_cvttps_epi32(uz), plane),
+                                              _mm256_mullo_epi32(_mm256_cvttps_epi32(uy), row)),
+                             _mm256_srli_epi32(x0, 5));
+        sh = _mm256_and_si256(x0, low5);
+      }
       const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k1 - k), lane);
       const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), bits, w, live, 4);
-      const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, _mm256_and_si256(x0, low5)), one);
+      const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, sh), one);
       const int m = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one))));
       if (m != 0) {
         const __m256i idx = _mm256_and_si256(_mm256_srlv_epi32(_mm256_set1_epi32(int(kCompact.packed[m])), shifts), nib);
@@ -287,16 +340,21 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
 }  // namespace
 
 int dvr_batch(const DvrBatchArgs& a, int k, int n, DvrBatchOut& out) {
-  return a.elem_size == 1 ? dvr_batch_avx2<1>(a, k, n, out) : dvr_batch_avx2<2>(a, k, n, out);
+  if (a.slot) return a.elem_size == 1 ? dvr_batch_avx2<1, true>(a, k, n, out) : dvr_batch_avx2<2, true>(a, k, n, out);
+  return a.elem_size == 1 ? dvr_batch_avx2<1, false>(a, k, n, out) : dvr_batch_avx2<2, false>(a, k, n, out);
 }
 
 int dvr_batch_at(const DvrBatchArgs& a, const int* ks, int n, DvrBatchOut& out) {
-  return a.elem_size == 1 ? dvr_batch_at_avx2<1>(a, ks, n, out) : dvr_batch_at_avx2<2>(a, ks, n, out);
+  if (a.slot) {
+    return a.elem_size == 1 ? dvr_batch_at_avx2<1, true>(a, ks, n, out) : dvr_batch_at_avx2<2, true>(a, ks, n, out);
+  }
+  return a.elem_size == 1 ? dvr_batch_at_avx2<1, false>(a, ks, n, out) : dvr_batch_at_avx2<2, false>(a, ks, n, out);
 }
 
 int dvr_mask_scan_spans(const DvrBatchArgs& a, const SampleSpan* spans, int n, int& s, int& k, int* ks, int queued,
                         int want) {
-  return dvr_mask_scan_avx2(a, spans, n, s, k, ks, queued, want);
+  return a.slot ? dvr_mask_scan_avx2<true>(a, spans, n, s, k, ks, queued, want)
+                : dvr_mask_scan_avx2<false>(a, spans, n, s, k, ks, queued, want);
 }
 
 #else

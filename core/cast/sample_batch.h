@@ -28,6 +28,14 @@ struct DvrBatchArgs {
   const std::uint64_t* mask_bits = nullptr;  // null: every lane is fetched
   int mask_row_words = 0;      // 64-bit words
   int mask_plane_words = 0;
+  // Out of core, a brick's slot (cache/brick_cache.h SlotSampler) as the volume: `data` holds its stored
+  // voxels (dims = B + 2 each way), `first` is the level voxel its stored voxel 0 holds, and the lanes'
+  // voxels, clamped to `hi` in the level's voxels as the scalar sampler clamps them, index it less `first`
+  // (the blend weights are those of the level's voxels). The mask is the slot's, a bit per stored voxel
+  // packed x fastest without row padding: bit (z * dims.y + y) * dims.x + x. Off (in core): `first` 0 and
+  // the mask's rows padded to words.
+  bool slot = false;
+  ivec3 first{0};
   vec3 origin{0.0f}, dir{0.0f};
   float t_entry = 0.0f, dt = 1.0f;
   const float* tf_table = nullptr;  // vec4 entries, w = opacity
