@@ -233,14 +233,15 @@ struct VirtualSampler {
 
 #if !defined(__CUDA_ARCH__)
   // The cursor's slot as the CPU batch's volume (core/cast/sample_batch.h, DvrBatchArgs::slot), where the
-  // wanted brick itself is resident with its voxel mask and its voxels are u8 or u16: the batch reads
-  // the voxels and mask bits sample() and mask_visible() read, with the same arithmetic. False elsewhere.
+  // brick serving the wanted one (itself, or the resident ancestor standing in for it) is resident with
+  // its voxel mask and its voxels are u8 or u16: the batch reads the voxels and mask bits sample() and
+  // mask_visible() read, at the serving brick's level, with the same arithmetic. False elsewhere.
   bool slot_batch(DvrBatchArgs& b) const {
     if constexpr (!(std::is_same_v<T, std::uint8_t> || std::is_same_v<T, std::uint16_t>)) {
       (void)b;
       return false;
     } else {
-      if (!cur.complete || !cur.entry.is_resident() || cur.mask == nullptr) return false;
+      if (!cur.entry.is_resident() || cur.mask == nullptr) return false;
       const SlotSampler<T>& v = cur.voxels;
       b.slot = true;
       b.data = v.data;

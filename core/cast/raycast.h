@@ -453,8 +453,8 @@ struct RayCaster {
   }
 
 #if !defined(__CUDA_ARCH__)
-  // march_leaping's samples from k (in an occupied cell of the cursor's brick, which must be the wanted
-  // one, resident, with its voxel mask) to the brick's exit, the sample grid not strided at this level
+  // march_leaping's samples from k (in a fine cell of the cursor's brick, served by a resident slot with
+  // its voxel mask: its own or a resident ancestor's) to the brick's exit, the sample grid not strided at this level
   // and the level the same throughout: those whose mask bit is set found and taken eight at a time from
   // the slot (BatchMarch::march_slot), the rest left out, the shortfall counted as sample() would.
   // 1: taken, the ray goes on from `stop`; -1: it terminated (`stop`: one past its last sample);
