@@ -55,7 +55,8 @@ void OutOfCoreRenderer::take_loaded_brick(LoadedBrick&& b, LazyOccupancy::BrickM
 
 // Paper §8.2: each missed brick means what the occupancy tree says of its region. Unknown → its
 // metadata (from cache, or by loading the brick), then cull and grow; known non-empty and not
-// resident → load; known empty → map it Empty. Unknown regions never load data for sampling alone.
+// resident → load; known empty → map it Empty (served as 0), unless its values reach the image (iso
+// mode, lighting: empty_values_read_), then load it. Unknown regions never load data for sampling alone.
 OutOfCoreRenderer::MissResolution OutOfCoreRenderer::resolve_misses() {
   MissResolution res;
   MissLoads loads;
@@ -77,7 +78,7 @@ void OutOfCoreRenderer::resolve_miss(BrickId id, MissResolution& res, MissLoads&
     return;
   }
   const PageEntry e = residency_.page_table().get(id);
-  if (cls == OccupancyClass::Empty) {
+  if (cls == OccupancyClass::Empty && !empty_values_read_) {
     if (!e.is_resident() && e.state() != PageEntry::State::Empty) {
       residency_.map_culled_empty(id);
       res.changed = true;

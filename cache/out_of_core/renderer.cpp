@@ -91,7 +91,10 @@ void OutOfCoreRenderer::begin_culling(const OutOfCoreScene& scene, const RenderS
   cull.iso = s.iso;
   cull.enabled = scene.enabled;
   cull_ = cull;
-  if (occupancy_.begin_frame(frame_, cull)) residency_.forget_culled_empty_pages();
+  const bool values_read = s.mode == RenderMode::Iso || s.lighting.enabled;
+  const bool recull = occupancy_.begin_frame(frame_, cull);
+  if (recull || values_read != empty_values_read_) residency_.forget_culled_empty_pages();
+  empty_values_read_ = values_read;
 }
 
 OutOfCoreRenderer::FrameStart OutOfCoreRenderer::start_frame(const OutOfCoreScene& scene, const RenderSettings& s) {

@@ -134,6 +134,10 @@ class OutOfCoreRenderer {
   FramePipeline pipeline_;
   SampleClip clip_;
   CullParams cull_;  // this frame's culling inputs (the voxel masks are built for them)
+  // Whether the values of bricks culled empty reach the image: iso mode (which side of the iso value
+  // a corner or sample lies on) and lighting (the gradient of a sample next to such a brick). Then
+  // such a brick is loaded when a ray reads it instead of being mapped Empty (served as 0).
+  bool empty_values_read_ = false;
   RayGenerator last_gen_;  // the rays of the frame whose misses are resolved next (load priority)
 };
 
