@@ -134,7 +134,7 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                std::string("Out of core with this brick-cache budget") +
                    (view ? ": bricks stream in and the view refines" : "") + " (default for procedural: 1024)");
   c.add_option("--brick", o.brick, "Brick payload edge: 8, 16, 32 or 64 (out of core)")->capture_default_str();
-  c.add_option("--lod", o.lod, "Pin every sample to this level (out of core; default: from the pixel footprint)");
+  c.add_option("--lod", o.lod, "Pin every sample to this level (out of core; default: from the pixel footprint). When the view's bricks at that level do not fit --cache-mb, the frames go on in depth passes to the exact image");
   c.add_option("--lod-bias", o.lod_bias, "Level-of-detail bias, > 0; > 1 coarser (out of core)")->capture_default_str();
   c.add_option("--pyramid", s.pyramid,
                "Coarse levels shown out of core: mean (each voxel the average of the voxels below) or max (the "

@@ -113,6 +113,9 @@ class CastDevice {
   // True: the caster reads the host's page table, cache and miss buffer directly (the CPU): no
   // uploads, no page-table sync, misses and usage land in the host buffers during the cast.
   virtual bool shares_host_memory() const = 0;
+  // True: the cast runs on the host and may read and write per-ray state in host memory
+  // (SkipInputs::rays: depth passes, depth_passes.h). The CPU and its simulated stand-in; not a GPU.
+  virtual bool casts_on_host() const { return shares_host_memory(); }
   virtual void configure(const DeviceConfig& config) = 0;
   virtual void begin_frame() = 0;
   virtual void upload_bricks(std::span<const BrickUpload> bricks) = 0;

@@ -23,6 +23,9 @@ class Convergence {
   // Updates the state from frame `frame`; returns the frame it converged at (-1: not converged).
   int update(std::uint32_t frame, const CacheStats& c, const FrameProgress& p);
   bool converged() const { return converged_; }
+  // Starts over (the frames now cast something else: the next depth pass): the next frame's misses
+  // are compared with nothing.
+  void restart();
 
  private:
   bool converged_ = false;

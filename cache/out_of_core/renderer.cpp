@@ -1,6 +1,7 @@
 #include "cache/out_of_core/renderer.h"
 
 #include <algorithm>
+#include <limits>
 #include <string>
 
 #include "core/occupancy/culling.h"
@@ -51,6 +52,7 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
 
   const RayGenerator gen = make_ray_generator(scene.camera, s.width, s.height);
   last_gen_ = gen;
+  passes_.begin_frame(DepthPasses::View{scene.camera, s, occupancy_.cull_key()});
   const FrameLod lod = pressure_.frame_lod(gen, s, source_->desc());
   // Before the tree is used: provisional EMPTY where this frame wants a finer level opens now.
   resolved.changed = occupancy_.update_tree(lod.lod, gen) || resolved.changed;
@@ -60,9 +62,11 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   st.time_ms.tree = t.ms();
   occupancy_.fill_stats(st);
 
-  cast(scene, s, gen, lod, skip_inputs(s, gen, st), frame);
+  SkipInputs skip = skip_inputs(s, gen, st);
+  passes_.apply(skip.pass_t0, skip.pass_t1, skip.rays);
+  cast(scene, s, gen, lod, skip, frame);
   fill_cache_stats(start, lod, st);
-  update_convergence(resolved, st.cache);
+  update_convergence(resolved, gen, st.cache);
   if (settings_.prefetch) prefetch(scene, s, lod, gen, st.cache);
   pipeline_.finish_frame(frame, s, &occupancy_.tree(), gen, total);
   return frame;
@@ -165,13 +169,41 @@ void OutOfCoreRenderer::touch_used_bricks() {
   }
 }
 
-void OutOfCoreRenderer::update_convergence(const MissResolution& resolved, CacheStats& c) {
+void OutOfCoreRenderer::update_convergence(const MissResolution& resolved, const RayGenerator& gen, CacheStats& c) {
   FrameProgress p;
   p.may_refine = pressure_.may_refine();
   p.pressure_changed = pressure_.changed();
   p.misses_changed = resolved.changed;
   p.awaiting = occupancy_.waiting_for_metadata() || prefetch_.applying();
   c.converged_at_frame = convergence_.update(frame_, c, p);
+  // A pinned level that settled short of complete because its bricks do not fit: depth passes
+  // (depth_passes.h), on a device that casts on the host (the rays' states live there).
+  const bool can_split = settings_.lod >= 0 && residency_.device().casts_on_host() && c.failed == 0;
+  const WorldBox box{vec3(0.0f), source_->desc().extent()};
+  float t_near = std::numeric_limits<float>::max(), t_far = 0.0f;
+  for (int k = 0; k < 8; ++k) {
+    const vec3 q((k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y, (k & 4) ? box.hi.z : box.lo.z);
+    t_far = std::max(t_far, gen.orthographic ? glm::dot(q - gen.eye, gen.forward) : glm::length(q - gen.eye));
+    if (gen.orthographic) t_near = std::min(t_near, glm::dot(q - gen.eye, gen.forward));
+  }
+  if (!gen.orthographic) t_near = glm::length(glm::clamp(gen.eye, box.lo, box.hi) - gen.eye);
+  t_near = std::max(t_near, 0.0f);
+  // Ranges are halved down to a quarter of a brick: a thin shell still cuts a layer of bricks, but
+  // the thinner it is, the fewer bricks it crosses where it meets the grid obliquely.
+  const float min_width = 0.25f * float(layout().brick_size) * source_->desc().min_spacing() *
+                          float(1 << std::max(settings_.lod, 0));
+  const double share = c.cache_mb > 0 ? c.working_set_mb / c.cache_mb : 0.0;
+  if (passes_.end_frame(convergence_.converged(), c.completeness >= 1.0, c.completeness, can_split, t_near, t_far,
+                        min_width, share)) {
+    convergence_.restart();
+  }
+  if (passes_.running()) {
+    if (passes_.in_progress()) c.converged_at_frame = -1;
+    c.completeness = std::min(c.completeness, passes_.completeness());
+    c.depth_passes = passes_.count();
+    c.depth_pass = passes_.current();
+    c.depth_pass_bytes = passes_.bytes();
+  }
 }
 
 void OutOfCoreRenderer::prefetch(const OutOfCoreScene& scene, const RenderSettings& s, const FrameLod& lod,

@@ -14,6 +14,7 @@
 #include "cache/out_of_core/cache_pressure.h"
 #include "cache/out_of_core/cast_device.h"
 #include "cache/out_of_core/convergence.h"
+#include "cache/out_of_core/depth_passes.h"
 #include "cache/out_of_core/lazy_occupancy.h"
 #include "cache/out_of_core/prefetch.h"
 #include "cache/out_of_core/residency.h"
@@ -44,7 +45,8 @@ class OutOfCoreRenderer {
   // build the occupancy geometry and segment lists (SparseLeap) and cast. Never waits for loads.
   Frame render(const OutOfCoreScene& scene, const RenderSettings& settings);
 
-  bool converged() const { return convergence_.converged(); }
+  // Nothing left to load or resolve, and no depth pass still to cast (depth_passes.h).
+  bool converged() const { return convergence_.converged() && !passes_.in_progress(); }
   // Quarter-octave steps by which cache pressure coarsens the level of detail now (0: none; --lod N: 0).
   int pressure() const { return pressure_.pressure(); }
   std::uint32_t frame() const { return frame_; }
@@ -117,7 +119,7 @@ class OutOfCoreRenderer {
   void count_loader(CacheStats& c) const;
   void count_completeness(Stats& st) const;
   void count_misses(CacheStats& c) const;
-  void update_convergence(const MissResolution& resolved, CacheStats& c);
+  void update_convergence(const MissResolution& resolved, const RayGenerator& gen, CacheStats& c);
   void prefetch(const OutOfCoreScene& scene, const RenderSettings& s, const FrameLod& lod, const RayGenerator& gen,
                 const CacheStats& c);
 
@@ -130,6 +132,7 @@ class OutOfCoreRenderer {
   CachePressure pressure_;
   Prefetch prefetch_;
   Convergence convergence_;
+  DepthPasses passes_;
   std::vector<std::uint64_t> shortfall_;  // the frame's SampleShortfall counters (completeness)
   FramePipeline pipeline_;
   SampleClip clip_;

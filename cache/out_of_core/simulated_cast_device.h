@@ -30,6 +30,7 @@ class SimulatedCastDevice final : public CastDevice {
  public:
   const char* name() const override { return "simulated"; }
   bool shares_host_memory() const override { return false; }
+  bool casts_on_host() const override { return true; }
   void configure(const DeviceConfig& config) override;
   void begin_frame() override;
   void upload_bricks(std::span<const BrickUpload> bricks) override;

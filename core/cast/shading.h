@@ -20,6 +20,8 @@ struct Lighting {
   // Gradient-magnitude guard (value units per world unit): below it the normal is noise (homogeneous
   // regions, where the gradient is ~0) and the sample keeps its unlit colour.
   float min_gradient = 0.0f;
+
+  bool operator==(const Lighting&) const = default;
 };
 
 // The lit colour of a sample of colour `rgb` (not premultiplied) with reconstruction gradient `g` seen

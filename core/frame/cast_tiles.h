@@ -85,8 +85,9 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
           ray.dir = vec3(tr.dir[0][k], tr.dir[1][k], tr.dir[2][k]);
           const float t_entry = t0[lane] > 0.0f ? t0[lane] : 0.0f, t_exit = t1[lane];
           const std::size_t i = std::size_t(y) * img.width + x;
-          RayAccum acc;
+          RayAccum acc = skip.rays != nullptr ? skip.rays[i] : RayAccum{};
           const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses, &plans);
+          if (skip.rays != nullptr) skip.rays[i] = acc;
           img.rgba[i] = caster.resolve(acc);
           samples_ch[i] = float(acc.samples);
           dc_ch[i] = float(dc);

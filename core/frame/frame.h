@@ -37,6 +37,8 @@ struct RenderSettings {
   float gap_eps = 0.0f;    // short-EMPTY-gap threshold in sample steps (0: off)
   bool depth_complexity_view = false;  // image shows segments (or octree nodes) per ray
   bool boxes_overlay = false;          // draw the occupancy geometry over the image
+
+  bool operator==(const RenderSettings&) const = default;
 };
 
 struct Scene {

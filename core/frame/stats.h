@@ -49,6 +49,11 @@ struct CacheStats {
   double working_set_mb = 0;
   int working_set_level = 0;
   double cache_mb = 0;           // the cache's budget in use (slots x slot size)
+  // Depth passes (cache/out_of_core/depth_passes.h: a pinned level whose working set does not fit):
+  // their number (0: one pass), the one this frame cast, and the rays' states they hold.
+  int depth_passes = 0;
+  int depth_pass = 0;
+  std::uint64_t depth_pass_bytes = 0;
 };
 
 struct Stats {

@@ -19,6 +19,8 @@ struct Camera {
   float fov_deg = 30.0f;    // vertical field of view (perspective)
   float height = 1.0f;      // world-space height of the view (orthographic)
   Projection projection = Projection::Perspective;
+
+  bool operator==(const Camera&) const = default;
 };
 
 // Reads `{"eye":[..],"center":[..],"up":[..],"fov_deg":30,"projection":"perspective"|"orthographic",

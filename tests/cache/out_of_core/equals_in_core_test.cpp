@@ -28,10 +28,6 @@ struct Data {
   std::shared_ptr<const Volume> volume, labels;
   std::uint32_t label_count = 0;
   float iso = 128;
-  // The cache as a share of the volume's bytes in the cache (every brick with its apron, intensity
-  // and labels): less than the volume, more than the view's working set (without culling, method
-  // none, the rays need every brick they cross, empty or not).
-  double share_sparseleap = 0.45, share_none = 0.7;
   TransferFunction tf = default_transfer_function(0, 255);
   std::string enable = "fraction:0.35:2";  // the labels masked in (dvr, mip, iso) or shown (labels mode)
 };
@@ -42,8 +38,7 @@ const Data& data(const std::string& kind) {
     if (d->kind == kind) return *d;
   auto d = std::make_unique<Data>();
   d->kind = kind;
-  ivec3 dims(160, 144, 128);  // 2.8 MiB of u8 (+ 5.6 MiB of u16 labels)
-  if (kind == "sphere") dims = ivec3(112, 96, 88);
+  const ivec3 dims(160, 144, 128);  // 2.8 MiB of u8 (+ 5.6 MiB of u16 labels), 11.3 MiB of f32
   GeneratedVolume g = generate_volume(kind, dims, 7);
   d->label_count = g.label_count;
   d->volume = std::make_shared<const Volume>(std::move(g.intensity));
@@ -55,15 +50,13 @@ const Data& data(const std::string& kind) {
   } else if (kind == "organs") {
     d->iso = 150;       // the spine (192-240) in the body (72-90)
     d->enable = "2-3";  // body and spine (skin and heart hide them or show little)
-    d->share_sparseleap = 0.7;  // 74 % of the voxels are not empty
   } else if (kind == "sphere") {
-    // A shell of radius 18-26: the inside and the outside are culled.
-    d->tf = TransferFunction({{16.0f, vec4(0.0f)},
-                              {18.0f, {0.9f, 0.5f, 0.2f, 0.3f}},
-                              {24.0f, {1.0f, 0.9f, 0.6f, 0.6f}},
-                              {26.0f, vec4(0.0f)}});
-    d->iso = 22;
-    d->share_sparseleap = d->share_none = 0.85;  // mip culls nothing inside the shell
+    // A shell of radius 44-60: the inside and the outside are culled.
+    d->tf = TransferFunction({{42.0f, vec4(0.0f)},
+                              {44.0f, {0.9f, 0.5f, 0.2f, 0.3f}},
+                              {56.0f, {1.0f, 0.9f, 0.6f, 0.6f}},
+                              {60.0f, vec4(0.0f)}});
+    d->iso = 50;
   }
   all.push_back(std::move(d));
   return *all.back();
@@ -121,68 +114,139 @@ struct Case {
   Mode mode;
 };
 
+// The test view (one corner of the volume) and its in-core frame.
+struct Reference {
+  const Data& d;
+  LabelSet enabled;
+  const LabelSet* en = nullptr;
+  RenderSettings s;
+  Camera cam;
+  Frame in_core;
+
+  explicit Reference(const Case& c) : d(data(c.kind)) {
+    if (d.labels) {
+      enabled = parse_enable_spec(d.enable, d.label_count);
+      en = &enabled;
+    }
+    s = settings(c.mode, d);
+    cam = corner_view(d, vec3(0.32f, 0.36f, 0.4f), vec3(-0.55f, -0.7f, -0.45f));
+    in_core = InCoreRenderer().render(Scene{d.volume.get(), d.labels.get(), &d.tf, en, cam}, s);
+  }
+  OutOfCoreScene scene(const Camera& view) const { return OutOfCoreScene{&d.tf, en, view}; }
+};
+
+// Renders `view` until converged; the frames' evictions are added to `evictions`.
+Frame converge(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSettings& s, int max_frames,
+               std::uint64_t* evictions = nullptr) {
+  Frame f;
+  for (int i = 0; i < max_frames; ++i) {
+    f = r.render(scene, s);
+    if (evictions) *evictions += f.stats.cache.evictions;
+    if (r.converged()) return f;
+    r.wait_for_loads();
+  }
+  ADD_FAILURE() << "did not converge in " << max_frames << " frames";
+  return f;
+}
+
+// The view's working set at level 0: the bricks its converged frame uses, with their aprons.
+double working_set_mb(const std::shared_ptr<const VolumeSource>& source, const Reference& ref, const RenderSettings& s) {
+  OutOfCoreSettings os;
+  os.brick = 16;
+  os.lod = 0;
+  os.cache_mb = 64;  // the whole volume
+  OutOfCoreRenderer whole(source, os, s.block);
+  const int stored = os.brick + 2 * kBrickApron;
+  const Data& d = ref.d;
+  const double voxel_bytes =
+      double(voxel_size(d.volume->desc().type)) + (d.labels ? double(voxel_size(d.labels->desc().type)) : 0.0);
+  return double(converge(whole, ref.scene(ref.cam), s, 80).stats.cache.hits) * stored * stored * stored *
+         voxel_bytes / (1 << 20);
+}
+
+void expect_same_image(const Frame& f, const Frame& in_core) {
+  ASSERT_EQ(f.image.rgba.size(), in_core.image.rgba.size());
+  std::size_t differing = 0, first = 0;
+  float worst = 0;
+  for (std::size_t i = 0; i < f.image.rgba.size(); ++i)
+    if (f.image.rgba[i] != in_core.image.rgba[i]) {
+      if (differing++ == 0) first = i;
+      const vec4 e = glm::abs(f.image.rgba[i] - in_core.image.rgba[i]);
+      worst = std::max(worst, std::max(std::max(e.x, e.y), std::max(e.z, e.w)));
+    }
+  EXPECT_EQ(differing, 0u) << "pixels differing from the in-core frame; the first at ("
+                           << first % std::size_t(f.image.width) << ", " << first / std::size_t(f.image.width)
+                           << "), largest difference " << worst;
+  float alpha = 0;
+  for (const vec4& p : in_core.image.rgba) alpha += p.w;
+  EXPECT_GT(alpha, 5.0f) << "the comparison must not be of two nearly empty images";
+}
+
+const char* name(SkipMethod m) { return m == SkipMethod::None ? "out of core: none" : "out of core: sparseleap"; }
+
 class OutOfCoreEqualsInCore : public ::testing::TestWithParam<Case> {};
 
 TEST_P(OutOfCoreEqualsInCore, ConvergedFrameIsTheInCoreFrameForEveryMethod) {
-  const Case& c = GetParam();
-  const Data& d = data(c.kind);
-  const TransferFunction& tf = d.tf;
-  const LabelSet enabled = d.labels ? parse_enable_spec(d.enable, d.label_count) : LabelSet();
-  const LabelSet* en = d.labels ? &enabled : nullptr;
-  const RenderSettings s = settings(c.mode, d);
-  const Camera cam = corner_view(d, vec3(0.32f, 0.36f, 0.4f), vec3(-0.55f, -0.7f, -0.45f));
-  // Seen first, so that the test view's bricks replace the far corner's in the cache.
-  const Camera other = corner_view(d, vec3(0.68f, 0.64f, 0.6f), vec3(0.6f, 0.65f, 0.5f));
-  const Frame in_core = InCoreRenderer().render(Scene{d.volume.get(), d.labels.get(), &tf, en, cam}, s);
-  float alpha = 0;
-  for (const vec4& p : in_core.image.rgba) alpha += p.w;
-  ASSERT_GT(alpha, 5.0f) << "the comparison must not be of two nearly empty images";
-
-  OutOfCoreSettings os;
-  os.brick = 16;
-  const ivec3 bricks = (d.volume->desc().dims + os.brick - 1) / os.brick;
-  const double voxel_bytes =
-      double(voxel_size(d.volume->desc().type)) + (d.labels ? double(voxel_size(d.labels->desc().type)) : 0.0);
-  const int stored = os.brick + 2 * kBrickApron;
-  const double volume_mb = double(bricks.x) * bricks.y * bricks.z * stored * stored * stored * voxel_bytes / (1 << 20);
-  os.lod = 0;
-  auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, c.kind);
+  const Reference ref(GetParam());
+  const Data& d = ref.d;
+  // Seen first, so that the test view's bricks replace some of theirs in the cache: the opposite
+  // corner, then the whole volume.
+  const Camera others[] = {corner_view(d, vec3(0.68f, 0.64f, 0.6f), vec3(0.6f, 0.65f, 0.5f)),
+                           default_camera(d.volume->desc().extent())};
+  auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, GetParam().kind);
   for (SkipMethod method : {SkipMethod::SparseLeap, SkipMethod::None}) {
-    SCOPED_TRACE(method == SkipMethod::None ? "out of core: none" : "out of core: sparseleap");
-    RenderSettings so = s;
+    SCOPED_TRACE(name(method));
+    RenderSettings so = ref.s;
     so.method = method;
-    // Less than the volume, more than one view's working set (without culling the rays need every
-    // brick they cross, empty or not).
-    os.cache_mb = std::size_t((method == SkipMethod::None ? d.share_none : d.share_sparseleap) * volume_mb);
-    OutOfCoreRenderer r(source, os, s.block);
-    Frame f;
-    bool converged = false;
+    // The view's working set and a margin: less than all three views need (the cache evicts), more
+    // than this one does (one pass).
+    OutOfCoreSettings os;
+    os.brick = 16;
+    os.lod = 0;
+    os.cache_mb = std::size_t(std::ceil(1.05 * working_set_mb(source, ref, so)));
+    OutOfCoreRenderer r(source, os, so.block);
     std::uint64_t evictions = 0;
-    for (const Camera& view : {other, cam}) {
-      converged = false;
-      evictions = 0;
-      for (int i = 0; i < 80 && !converged; ++i) {
-        f = r.render(OutOfCoreScene{&tf, en, view}, so);
-        evictions += f.stats.cache.evictions;
-        converged = r.converged();
-        if (!converged) r.wait_for_loads();
-      }
-      ASSERT_TRUE(converged) << "did not converge in 80 frames";
-    }
-    EXPECT_GT(evictions, 0u) << "the cache must not hold both views' bricks";
+    for (const Camera& other : others) converge(r, ref.scene(other), so, 80, &evictions);
+    const Frame f = converge(r, ref.scene(ref.cam), so, 80, &evictions);
+    EXPECT_GT(evictions, 0u) << "the cache must not hold all three views' bricks";
     EXPECT_EQ(f.stats.cache.completeness, 1.0);
+    EXPECT_EQ(f.stats.cache.depth_passes, 0) << "the view fits: one pass";
     EXPECT_LE(f.stats.cache.resident_mb, double(os.cache_mb));
-    ASSERT_EQ(f.image.rgba.size(), in_core.image.rgba.size());
-    std::size_t differing = 0, first = 0;
-    float worst = 0;
-    for (std::size_t i = 0; i < f.image.rgba.size(); ++i)
-      if (f.image.rgba[i] != in_core.image.rgba[i]) {
-        if (differing++ == 0) first = i;
-        const vec4 e = glm::abs(f.image.rgba[i] - in_core.image.rgba[i]);
-        worst = std::max(worst, std::max(std::max(e.x, e.y), std::max(e.z, e.w)));
-      }
-    EXPECT_EQ(differing, 0u) << "pixels differing from the in-core frame; the first at (" << first % s.width << ", "
-                             << first / s.width << "), largest difference " << worst;
+    expect_same_image(f, ref.in_core);
+  }
+}
+
+// A pinned level whose working set is twice the cache: the frames settle short of complete, then go
+// on in depth passes (cache/out_of_core/depth_passes.h) to the exact image of the level.
+class PinnedLevelInDepthPasses : public ::testing::TestWithParam<Case> {};
+
+TEST_P(PinnedLevelInDepthPasses, HalfTheWorkingSetConvergesToTheInCoreFrame) {
+  const Reference ref(GetParam());
+  const Data& d = ref.d;
+  auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, GetParam().kind);
+  for (SkipMethod method : {SkipMethod::SparseLeap, SkipMethod::None}) {
+    SCOPED_TRACE(name(method));
+    RenderSettings so = ref.s;
+    so.method = method;
+    OutOfCoreSettings os;
+    os.brick = 16;
+    os.lod = 0;
+    const double working_set = working_set_mb(source, ref, so);
+    os.cache_mb = std::max<std::size_t>(1, std::size_t(0.5 * working_set));
+    OutOfCoreRenderer r(source, os, so.block);
+    const Frame f = converge(r, ref.scene(ref.cam), so, 400);
+    EXPECT_EQ(f.stats.cache.completeness, 1.0);
+    EXPECT_GE(f.stats.cache.depth_passes, 2) << "working set " << working_set << " MB, cache " << os.cache_mb;
+    EXPECT_EQ(f.stats.cache.depth_pass, f.stats.cache.depth_passes - 1);
+    EXPECT_LE(f.stats.cache.resident_mb, double(os.cache_mb));
+    expect_same_image(f, ref.in_core);
+    // Converged stays converged: the next frame casts the last pass again, to the same image.
+    const Frame again = r.render(ref.scene(ref.cam), so);
+    EXPECT_TRUE(r.converged());
+    EXPECT_TRUE(again.image.rgba == f.image.rgba);
+    // Another view ends the passes.
+    const Camera other = corner_view(d, vec3(0.68f, 0.64f, 0.6f), vec3(0.6f, 0.65f, 0.5f));
+    EXPECT_EQ(r.render(ref.scene(other), so).stats.cache.depth_passes, 0);
   }
 }
 
@@ -194,10 +258,10 @@ std::vector<Case> cases() {
   return v;
 }
 
-INSTANTIATE_TEST_SUITE_P(BuiltInSets, OutOfCoreEqualsInCore, ::testing::ValuesIn(cases()),
-                         [](const ::testing::TestParamInfo<Case>& i) {
-                           return i.param.kind + "_" + name(i.param.mode);
-                         });
+std::string case_name(const ::testing::TestParamInfo<Case>& i) { return i.param.kind + "_" + name(i.param.mode); }
+
+INSTANTIATE_TEST_SUITE_P(BuiltInSets, OutOfCoreEqualsInCore, ::testing::ValuesIn(cases()), case_name);
+INSTANTIATE_TEST_SUITE_P(BuiltInSets, PinnedLevelInDepthPasses, ::testing::ValuesIn(cases()), case_name);
 
 }  // namespace
 }  // namespace sl
