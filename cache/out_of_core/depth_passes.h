@@ -11,8 +11,9 @@
 // Passes start only when a frame at a pinned level has settled incomplete (nothing more fits), and
 // end when anything the image depends on changes (camera, image size, casting settings, transfer
 // function or labels). They run where the cast runs on the host (the CPU device and its simulated
-// stand-in); the CUDA device renders such a view incomplete, as before. Memory: two RayAccum per pixel (the committed states and the frame's), 96
-// bytes per pixel (25 MB at 512²), reported as CacheStats::depth_pass_bytes.
+// stand-in); the CUDA device renders such a view incomplete, as before. Memory: two RayAccum per
+// pixel (the committed states and the frame's), 88 bytes per pixel (22 MiB at 512²), reported as
+// CacheStats::depth_pass_bytes.
 #pragma once
 
 #include <cstdint>
