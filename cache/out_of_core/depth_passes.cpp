@@ -73,4 +73,16 @@ bool DepthPasses::end_frame(bool settled, bool complete, double completeness, bo
   return true;
 }
 
+void view_depth_range(const RayGenerator& gen, const vec3& lo, const vec3& hi, float& t_near, float& t_far) {
+  t_near = std::numeric_limits<float>::max();
+  t_far = 0.0f;
+  for (int k = 0; k < 8; ++k) {
+    const vec3 q((k & 1) ? hi.x : lo.x, (k & 2) ? hi.y : lo.y, (k & 4) ? hi.z : lo.z);
+    t_far = std::max(t_far, gen.orthographic ? glm::dot(q - gen.eye, gen.forward) : glm::length(q - gen.eye));
+    if (gen.orthographic) t_near = std::min(t_near, glm::dot(q - gen.eye, gen.forward));
+  }
+  if (!gen.orthographic) t_near = glm::length(glm::clamp(gen.eye, lo, hi) - gen.eye);
+  t_near = std::max(t_near, 0.0f);
+}
+
 }  // namespace sl

@@ -61,10 +61,9 @@ class DepthPasses {
   std::uint64_t bytes() const {
     return std::uint64_t(committed_.capacity() + frame_.capacity()) * sizeof(RayAccum);
   }
-  void reset();
 
  private:
-  void split(int pass, float t_near, float t_far);
+  void reset();
 
   View view_;
   bool have_view_ = false;
@@ -76,5 +75,9 @@ class DepthPasses {
   float t_near_ = 0.0f, t_far_ = 0.0f;  // the view's t range, fixed when the passes start
   double completeness_ = 1.0;
 };
+
+// The range of t over which the rays of `gen` can meet the box [lo, hi]: from the box's nearest point
+// (0 inside it) to its farthest corner; along the view axis for an orthographic camera.
+void view_depth_range(const RayGenerator& gen, const vec3& lo, const vec3& hi, float& t_near, float& t_far);
 
 }  // namespace sl

@@ -1,7 +1,6 @@
 #include "cache/out_of_core/renderer.h"
 
 #include <algorithm>
-#include <limits>
 #include <string>
 
 #include "core/occupancy/culling.h"
@@ -176,18 +175,15 @@ void OutOfCoreRenderer::update_convergence(const MissResolution& resolved, const
   p.misses_changed = resolved.changed;
   p.awaiting = occupancy_.waiting_for_metadata() || prefetch_.applying();
   c.converged_at_frame = convergence_.update(frame_, c, p);
-  // A pinned level that settled short of complete because its bricks do not fit: depth passes
-  // (depth_passes.h), on a device that casts on the host (the rays' states live there).
+  update_depth_passes(gen, c);
+}
+
+// A pinned level that settled short of complete because its bricks do not fit goes on in depth
+// passes (depth_passes.h), on a device that casts on the host (the rays' states live there).
+void OutOfCoreRenderer::update_depth_passes(const RayGenerator& gen, CacheStats& c) {
   const bool can_split = settings_.lod >= 0 && residency_.device().casts_on_host() && c.failed == 0;
-  const WorldBox box{vec3(0.0f), source_->desc().extent()};
-  float t_near = std::numeric_limits<float>::max(), t_far = 0.0f;
-  for (int k = 0; k < 8; ++k) {
-    const vec3 q((k & 1) ? box.hi.x : box.lo.x, (k & 2) ? box.hi.y : box.lo.y, (k & 4) ? box.hi.z : box.lo.z);
-    t_far = std::max(t_far, gen.orthographic ? glm::dot(q - gen.eye, gen.forward) : glm::length(q - gen.eye));
-    if (gen.orthographic) t_near = std::min(t_near, glm::dot(q - gen.eye, gen.forward));
-  }
-  if (!gen.orthographic) t_near = glm::length(glm::clamp(gen.eye, box.lo, box.hi) - gen.eye);
-  t_near = std::max(t_near, 0.0f);
+  float t_near = 0.0f, t_far = 0.0f;
+  view_depth_range(gen, vec3(0.0f), source_->desc().extent(), t_near, t_far);
   // Ranges are halved down to a quarter of a brick: a thin shell still cuts a layer of bricks, but
   // the thinner it is, the fewer bricks it crosses where it meets the grid obliquely.
   const float min_width = 0.25f * float(layout().brick_size) * source_->desc().min_spacing() *

@@ -120,6 +120,7 @@ class OutOfCoreRenderer {
   void count_completeness(Stats& st) const;
   void count_misses(CacheStats& c) const;
   void update_convergence(const MissResolution& resolved, const RayGenerator& gen, CacheStats& c);
+  void update_depth_passes(const RayGenerator& gen, CacheStats& c);
   void prefetch(const OutOfCoreScene& scene, const RenderSettings& s, const FrameLod& lod, const RayGenerator& gen,
                 const CacheStats& c);
 

@@ -27,10 +27,10 @@ struct SkipInputs {
   FineOccupancyView fine; // sparseleap: cells skipped inside sampled segments (empty: off; bbox never sets it)
   SampleClip clip;        // distributed: only the samples in this rank's region (off: all)
   // A depth pass (out of core, a pinned level whose working set does not fit the cache:
-  // cache/out_of_core/depth_passes.h): only the samples of each ray with t in [pass_t0, pass_t1). The
-  // passes of a ray partition its grid samples (sample_index) and exact iso's stretches, so passes
-  // cast in order, each from the ray's state the last one left, composite the same samples in the
-  // same order as one pass: the same image.
+  // cache/out_of_core/depth_passes.h; read only with `rays`): only the samples of each ray with t
+  // in [pass_t0, pass_t1). The passes of a ray partition its grid samples (sample_index) and exact
+  // iso's stretches, so passes cast in order, each from the ray's state the last one left, composite
+  // the same samples in the same order as one pass: the same image.
   float pass_t0 = 0.0f, pass_t1 = INFINITY;
   // Per pixel, the ray's state to start from, where the pass leaves its own (host memory: the CPU
   // devices only); null: every ray starts afresh.
@@ -110,13 +110,15 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
                                         const Ray& ray, float t_entry, float t_exit, RayAccum& acc,
                                         std::uint32_t& misses, const BatchPlans<Sampler>* plans = nullptr) {
   const int k_end = sample_index(t_exit, t_entry, caster.p.inv_dt);
+  if (acc.done) return 0;  // ended in an earlier depth pass
   // The rank's samples of the global grid (all of them in a single process); every span is narrowed
   // to them, so the spans still partition the rank's samples exactly (core/cast/sample_clip.h).
-  if (acc.done) return 0;  // ended in an earlier depth pass
   int kc0 = 0, kc1 = k_end;
   clip_samples(skip.clip, ray, t_entry, caster.p.dt, caster.p.inv_dt, kc0, kc1);
-  {
-    const int a = sample_index(skip.pass_t0, t_entry, caster.p.inv_dt), b = sample_index(skip.pass_t1, t_entry, caster.p.inv_dt);
+  const bool pass = skip.rays != nullptr;  // a depth pass narrows them too
+  if (pass) {
+    const int a = sample_index(skip.pass_t0, t_entry, caster.p.inv_dt);
+    const int b = sample_index(skip.pass_t1, t_entry, caster.p.inv_dt);
     kc0 = a > kc0 ? a : kc0;
     kc1 = b < kc1 ? b : kc1;
   }
@@ -132,8 +134,8 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
     if (iv.t0 > tc0) tc0 = iv.t0;
     if (iv.t1 < tc1) tc1 = iv.t1;
   }
-  if (skip.pass_t0 > tc0) tc0 = skip.pass_t0;
-  if (skip.pass_t1 < tc1) tc1 = skip.pass_t1;
+  if (pass && skip.pass_t0 > tc0) tc0 = skip.pass_t0;
+  if (pass && skip.pass_t1 < tc1) tc1 = skip.pass_t1;
   const auto span = [&](float t0, float t1, bool unknown, const FineOccupancyView* fine) {
     if (exact) {
       const float a = t0 > tc0 ? t0 : tc0, b = t1 < tc1 ? t1 : tc1;

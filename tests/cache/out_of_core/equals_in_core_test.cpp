@@ -109,6 +109,9 @@ Camera corner_view(const Data& d, vec3 at, vec3 from) {
   return c;
 }
 
+// The opposite corner from the test view's.
+Camera opposite_view(const Data& d) { return corner_view(d, vec3(0.68f, 0.64f, 0.6f), vec3(0.6f, 0.65f, 0.5f)); }
+
 struct Case {
   std::string kind;
   Mode mode;
@@ -149,12 +152,23 @@ Frame converge(OutOfCoreRenderer& r, const OutOfCoreScene& scene, const RenderSe
   return f;
 }
 
-// The view's working set at level 0: the bricks its converged frame uses, with their aprons.
-double working_set_mb(const std::shared_ptr<const VolumeSource>& source, const Reference& ref, const RenderSettings& s) {
+// Level 0 pinned, bricks of 16, a cache of `cache_mb`.
+OutOfCoreSettings level_zero(std::size_t cache_mb) {
   OutOfCoreSettings os;
   os.brick = 16;
   os.lod = 0;
-  os.cache_mb = 64;  // the whole volume
+  os.cache_mb = cache_mb;
+  return os;
+}
+
+RenderSettings with_method(RenderSettings s, SkipMethod m) {
+  s.method = m;
+  return s;
+}
+
+// The view's working set at level 0: the bricks its converged frame uses, with their aprons.
+double working_set_mb(const std::shared_ptr<const VolumeSource>& source, const Reference& ref, const RenderSettings& s) {
+  const OutOfCoreSettings os = level_zero(64);  // the whole volume
   OutOfCoreRenderer whole(source, os, s.block);
   const int stored = os.brick + 2 * kBrickApron;
   const Data& d = ref.d;
@@ -191,19 +205,14 @@ TEST_P(OutOfCoreEqualsInCore, ConvergedFrameIsTheInCoreFrameForEveryMethod) {
   const Data& d = ref.d;
   // Seen first, so that the test view's bricks replace some of theirs in the cache: the opposite
   // corner, then the whole volume.
-  const Camera others[] = {corner_view(d, vec3(0.68f, 0.64f, 0.6f), vec3(0.6f, 0.65f, 0.5f)),
-                           default_camera(d.volume->desc().extent())};
+  const Camera others[] = {opposite_view(d), default_camera(d.volume->desc().extent())};
   auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, GetParam().kind);
   for (SkipMethod method : {SkipMethod::SparseLeap, SkipMethod::None}) {
     SCOPED_TRACE(name(method));
-    RenderSettings so = ref.s;
-    so.method = method;
+    const RenderSettings so = with_method(ref.s, method);
     // The view's working set and a margin: less than all three views need (the cache evicts), more
     // than this one does (one pass).
-    OutOfCoreSettings os;
-    os.brick = 16;
-    os.lod = 0;
-    os.cache_mb = std::size_t(std::ceil(1.05 * working_set_mb(source, ref, so)));
+    const OutOfCoreSettings os = level_zero(std::size_t(std::ceil(1.05 * working_set_mb(source, ref, so))));
     OutOfCoreRenderer r(source, os, so.block);
     std::uint64_t evictions = 0;
     for (const Camera& other : others) converge(r, ref.scene(other), so, 80, &evictions);
@@ -226,13 +235,9 @@ TEST_P(PinnedLevelInDepthPasses, HalfTheWorkingSetConvergesToTheInCoreFrame) {
   auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, GetParam().kind);
   for (SkipMethod method : {SkipMethod::SparseLeap, SkipMethod::None}) {
     SCOPED_TRACE(name(method));
-    RenderSettings so = ref.s;
-    so.method = method;
-    OutOfCoreSettings os;
-    os.brick = 16;
-    os.lod = 0;
+    const RenderSettings so = with_method(ref.s, method);
     const double working_set = working_set_mb(source, ref, so);
-    os.cache_mb = std::max<std::size_t>(1, std::size_t(0.5 * working_set));
+    const OutOfCoreSettings os = level_zero(std::max<std::size_t>(1, std::size_t(0.5 * working_set)));
     OutOfCoreRenderer r(source, os, so.block);
     const Frame f = converge(r, ref.scene(ref.cam), so, 400);
     EXPECT_EQ(f.stats.cache.completeness, 1.0);
@@ -245,8 +250,7 @@ TEST_P(PinnedLevelInDepthPasses, HalfTheWorkingSetConvergesToTheInCoreFrame) {
     EXPECT_TRUE(r.converged());
     EXPECT_TRUE(again.image.rgba == f.image.rgba);
     // Another view ends the passes.
-    const Camera other = corner_view(d, vec3(0.68f, 0.64f, 0.6f), vec3(0.6f, 0.65f, 0.5f));
-    EXPECT_EQ(r.render(ref.scene(other), so).stats.cache.depth_passes, 0);
+    EXPECT_EQ(r.render(ref.scene(opposite_view(d)), so).stats.cache.depth_passes, 0);
   }
 }
 
