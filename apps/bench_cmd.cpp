@@ -85,7 +85,7 @@ int bench(const BenchOptions& o, Distributed* dist) {
   const ThreadLimit threads(ro.threads);
   if (o.loader) return bench_loader(o, outputs);
 
-  const SourceScene scene = load_source_scene(ro.scene, ooc);
+  const SourceScene scene = load_source_scene(ro.scene, ooc, shows_labels(ro));
   RenderSettings rs = checked.settings;
   complete_settings(ro, scene, rs);
   const CameraPath path =

@@ -226,7 +226,7 @@ int render_frames(const RenderCommandOptions& o, [[maybe_unused]] Distributed* d
   check_frame_options(o);
   const ThreadLimit threads(ro.threads);
 
-  const SourceScene scene = load_source_scene(ro.scene, ro.out_of_core());
+  const SourceScene scene = load_source_scene(ro.scene, ro.out_of_core(), shows_labels(ro));
   RenderSettings rs = checked.settings;
   complete_settings(ro, scene, rs);
   std::string notice;  // printed once the renderer accepted the settings: bad input stays one line

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdlib>
+#include <limits>
 #include <regex>
 
 #include "cache/testing/fault_injection.h"
@@ -144,6 +145,12 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
   c.add_option("--retire-frames", o.retire_frames,
                "Retire occupancy-tree nodes unused this many frames (out of core)")
       ->capture_default_str();
+  if (cmd == Command::Render) o.upload_budget = 0;
+  c.add_option("--upload-budget", o.upload_budget,
+               "Bricks made resident per frame at most, out of core (0: every brick the loader has finished; "
+               "render's default, since its frames only converge; view and bench take 512 so that a frame's "
+               "time stays bounded)")
+      ->capture_default_str();
   c.add_option("--prefetch", o.prefetch,
                std::string("on or off: out of core, once a frame is complete, load the next-finer level around "
                            "the view's focus") +
@@ -277,6 +284,7 @@ OutOfCoreSettings out_of_core_settings(const RenderOptions& o) {
   os.lod = o.lod;
   os.lod_bias = o.lod_bias;
   os.retire_frames = o.retire_frames;
+  os.upload_budget = o.upload_budget == 0 ? std::numeric_limits<std::size_t>::max() : o.upload_budget;
   os.prefetch = o.prefetch == "on";
   return os;
 }

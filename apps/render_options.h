@@ -48,6 +48,10 @@ struct RenderOptions {
   int lod = -1;
   float lod_bias = 1.0f;
   unsigned retire_frames = 60;
+  // Bricks made resident per frame at most (OutOfCoreSettings::upload_budget); 0: every brick the
+  // loader has finished. add_render_options sets the command's default: 0 for render, whose frames
+  // only converge, 512 for view and bench, whose frames keep a bounded time.
+  std::size_t upload_budget = 512;
   // on|off (out of core; OutOfCoreSettings::prefetch). On: a moving view converges sooner (compare
   // with bench --path-kind zoom-in --prefetch on|off).
   std::string prefetch = "on";
@@ -72,6 +76,9 @@ CheckedOptions check_render_options(const RenderOptions& o);
 // What needs the loaded scene, the same in every command: labels mode needs a label volume (and out
 // of core the set to show, --enable); the iso default depends on the data.
 void complete_settings(const RenderOptions& o, const SourceScene& s, RenderSettings& rs);
+
+// Whether a render with these options reads labels: labels mode, or an enabled-label mask (--enable).
+inline bool shows_labels(const RenderOptions& o) { return o.mode == "labels" || !o.scene.enable.empty(); }
 
 // The out-of-core renderer's settings from the options (cache 1024 MB when --cache-mb is not given).
 OutOfCoreSettings out_of_core_settings(const RenderOptions& o);

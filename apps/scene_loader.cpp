@@ -227,8 +227,9 @@ SourceScene open_source_scene(const SceneOptions& o, bool out_of_core) {
 
 }  // namespace
 
-SourceScene load_source_scene(const SceneOptions& o, bool out_of_core) {
+SourceScene load_source_scene(const SceneOptions& o, bool out_of_core, bool labels_shown) {
   SourceScene s = open_source_scene(o, out_of_core);
+  if (s.source && !(s.labelled && labels_shown)) s.source = without_labels(std::move(s.source));
   // The one place sources are opened, so every source kind can be tested under faults.
   if (s.source && !o.inject_faults.empty()) {
     s.source = std::make_shared<FaultInjectingSource>(s.source, parse_fault_spec(o.inject_faults));

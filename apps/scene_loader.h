@@ -53,7 +53,11 @@ struct SourceScene {
   std::vector<std::shared_ptr<const CountingByteStore>> store_io;
   bool out_of_core() const { return source != nullptr; }
 };
-SourceScene load_source_scene(const SceneOptions& o, bool out_of_core);
+// `labels_shown`: something may show the labels (labels mode, an --enable mask, or a viewer that can
+// switch to them). Without it, or without labels the scene can name (a procedural volume's are hashed),
+// the out-of-core source is given without its labels (without_labels): the brick cache then holds
+// intensity only, five times as many u8 bricks as with u32 labels beside them.
+SourceScene load_source_scene(const SceneOptions& o, bool out_of_core, bool labels_shown);
 
 // Half of this machine's physical memory: what one input may take (0 when unknown).
 std::uint64_t in_memory_limit();

@@ -26,6 +26,45 @@ Volume reduce_level(const Volume& src, Reduce reduce) {
 
 bool is_integer(VoxelType t) { return t != VoxelType::F32; }
 
+void drop_label_lists(std::span<BlockMetadata> ms) {
+  for (BlockMetadata& m : ms) {
+    m.has_labels = false;
+    m.labels.clear();
+    m.labels.shrink_to_fit();
+  }
+}
+
+class WithoutLabels final : public VolumeSource {
+ public:
+  explicit WithoutLabels(std::shared_ptr<const VolumeSource> inner) : inner_(std::move(inner)) {}
+  const VolumeDesc& desc() const override { return inner_->desc(); }
+  bool has_labels() const override { return false; }
+  VoxelType label_type() const override { return VoxelType::U32; }
+  const std::string& name() const override { return inner_->name(); }
+  void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                  std::span<std::byte> out_labels) const override {
+    SL_CHECK(out_labels.empty());
+    inner_->read_brick(layout, id, out_intensity, {});
+  }
+  bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
+                    std::span<BlockMetadata> out) const override {
+    if (!inner_->bound_blocks(layout, level, block, blocks, out)) return false;
+    drop_label_lists(out);
+    return true;
+  }
+  void read_brick_bounded(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                          std::span<std::byte> out_labels, int block,
+                          std::vector<BlockMetadata>& bounds) const override {
+    SL_CHECK(out_labels.empty());
+    inner_->read_brick_bounded(layout, id, out_intensity, {}, block, bounds);
+    drop_label_lists(bounds);
+  }
+  PyramidKind pyramid() const override { return inner_->pyramid(); }
+
+ private:
+  std::shared_ptr<const VolumeSource> inner_;
+};
+
 }  // namespace
 
 void VolumeSource::check_request(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
@@ -132,6 +171,12 @@ void MemoryVolumeSource::read_brick(const BrickLayout& layout, BrickId id, std::
     const Volume& lv = *label_level(l);
     fill_brick(layout, id, lv.data(), ivec3(0), lv.dims(), voxel_size(lv.type()), out_labels);
   }
+}
+
+std::shared_ptr<const VolumeSource> without_labels(std::shared_ptr<const VolumeSource> source) {
+  SL_CHECK(source);
+  if (!source->has_labels()) return source;
+  return std::make_shared<WithoutLabels>(std::move(source));
 }
 
 }  // namespace sl

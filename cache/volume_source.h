@@ -107,5 +107,10 @@ class MemoryVolumeSource final : public VolumeSource {
   std::vector<LabelSetLevel> label_sets_;        // index 0 unused
 };
 
+// The intensity of `source` without its labels: has_labels() false, bricks read without their label
+// arrays and culling bounds without label lists. What a renderer that never reads labels (no labels
+// mode, no enabled-label mask) is given, so that its cache slots hold intensity only: u32 labels
+// beside u8 voxels are four fifths of a slot.
+std::shared_ptr<const VolumeSource> without_labels(std::shared_ptr<const VolumeSource> source);
 
 }  // namespace sl

@@ -178,7 +178,7 @@ std::vector<BrickId> centre_first_bricks(const BrickLayout& layout, std::uint64_
 int bench_loader(const BenchOptions& o, OutputFiles& outputs) {
   const RenderOptions& ro = o.render;
   const OutOfCoreSettings os = out_of_core_settings(ro);
-  SourceScene scene = load_source_scene(ro.scene, true);
+  SourceScene scene = load_source_scene(ro.scene, true, shows_labels(ro));
   // The renderer's layout (cache/out_of_core/renderer.cpp): the same bricks, so the same reads.
   const BrickLayout layout = BrickLayout::make(scene.source->desc(), os.brick, scene.source->name());
   const std::vector<BrickId> ids = centre_first_bricks(layout, std::uint64_t(o.loader_bricks));
@@ -198,7 +198,7 @@ int bench_loader(const BenchOptions& o, OutputFiles& outputs) {
     if (p > 1 && !scene.volume) {
       scene = SourceScene{};
       set_disk_cache(nullptr);
-      scene = load_source_scene(ro.scene, true);
+      scene = load_source_scene(ro.scene, true, shows_labels(ro));
     }
     passes.push_back(run_pass(p, scene.source, layout, ids, ro.threads, threads));
     if (p == 1) {

@@ -22,6 +22,8 @@ void OutOfCoreRenderer::fill_cache_stats(const FrameStart& start, const FrameLod
   count_misses(c);
   const double slot_mb = double(cache.slot_bytes()) / double(1 << 20);
   c.cache_mb = double(cache.slot_count()) * slot_mb;
+  c.slots = cache.slot_count();
+  c.slot_bytes = cache.slot_bytes();
   if (pressure_.unfit_working_set() > cache.slot_count()) {
     c.working_set_mb = double(pressure_.unfit_working_set()) * slot_mb;
     c.working_set_level = pressure_.working_set_level(lod);

@@ -135,7 +135,7 @@ struct Accumulator {
           const double mean = double(mass[i]) / kFixed / count;
           intensity[i] = pyramid == PyramidKind::Max ? std::uint8_t(peak[i])
                                                      : std::uint8_t(std::min(255.0, std::floor(mean + 0.5)));
-          labels[i] = std::uint32_t(votes[i] & 0xFFFFFFFFu);
+          if (labels) labels[i] = std::uint32_t(votes[i] & 0xFFFFFFFFu);
         }
       }
     }
@@ -255,14 +255,15 @@ class LevelZeroBounds {
     end = ivec3(0);
     for (std::size_t i = 0; i < lo_.size(); ++i) first = glm::min(first, lo_[i]), end = glm::max(end, hi_[i]);
   }
-  // Level-0 voxels [org, org + ext), x fastest.
+  // Level-0 voxels [org, org + ext), x fastest; labels null: bounds without label lists.
   void add(const std::uint8_t* intensity, const std::uint32_t* labels, ivec3 org, ivec3 ext) {
     const VolumeView iv{intensity, ext, vec3(1.0f), VoxelType::U8};
     const VolumeView lv{labels, ext, vec3(1.0f), VoxelType::U32};
+    const VolumeView* lp = labels ? &lv : nullptr;
     for (std::size_t i = 0; i < lo_.size(); ++i) {
       const ivec3 a = glm::max(lo_[i], org), b = glm::min(hi_[i], org + ext);
       if (glm::any(glm::greaterThanEqual(a, b))) continue;
-      BlockMetadata m = compute_box_metadata(iv, iv, &lv, a - org, b - org);
+      BlockMetadata m = compute_box_metadata(iv, iv, lp, a - org, b - org);
       if (out_[i].computed) {
         merge_box_metadata(out_[i], m);
       } else {
@@ -283,7 +284,7 @@ class LevelZeroBounds {
 // The level-l voxels [first, first + n): their level-0 voxels synthesised slab by slab (one level-l
 // slice each), every slab reduced 2x per level with pyramid.h — the MemoryVolumeSource definition, so
 // identical to its pyramid (mean or max) of the same level-0 data. `bounds` (optional) takes every
-// slab's level-0 voxels before they are reduced.
+// slab's level-0 voxels before they are reduced. out_l null: no labels (nor label lists in `bounds`).
 void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec3 first, ivec3 n,
                            std::uint8_t* out_i, std::uint32_t* out_l, LevelZeroBounds* bounds = nullptr) {
   const int s = 1 << level;
@@ -308,18 +309,20 @@ void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec
     const ivec3 org(lo0.x, lo0.y, z0), ext(ext0.x, ext0.y, z1 - z0 + 1);
     const std::size_t count = std::size_t(ext.x) * ext.y * ext.z;
     slab.fill(caps, bins[std::size_t(zl)], org, ext);
-    if (bounds) bounds->add(slab.inten.data(), slab.label.data(), org, ext);
+    if (bounds) bounds->add(slab.inten.data(), out_l ? slab.label.data() : nullptr, org, ext);
     ri.resize(count);
-    rl.resize(count * 4);
     std::memcpy(ri.data(), slab.inten.data(), count);
-    std::memcpy(rl.data(), slab.label.data(), count * 4);
+    if (out_l) {
+      rl.resize(count * 4);
+      std::memcpy(rl.data(), slab.label.data(), count * 4);
+    }
     ivec3 d = ext;
     for (int r = 0; r < level; ++r) {
       const ivec3 h = (d + 1) / 2;
       ti.resize(std::size_t(h.x) * h.y * h.z);
       tl.resize(ti.size() * 4);
       intensity_reduction(pyramid)(VoxelType::U8, ri.data(), d, ti.data(), 0, h.z);
-      reduce_mode(VoxelType::U32, rl.data(), d, tl.data(), 0, h.z);
+      if (out_l) reduce_mode(VoxelType::U32, rl.data(), d, tl.data(), 0, h.z);
       std::swap(ri, ti);
       std::swap(rl, tl);
       d = h;
@@ -327,7 +330,7 @@ void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec
     SL_CHECK(d == ivec3(n.x, n.y, 1));
     const std::size_t slice = std::size_t(n.x) * n.y;
     std::memcpy(out_i + std::size_t(zl) * slice, ri.data(), slice);
-    std::memcpy(out_l + std::size_t(zl) * slice, rl.data(), slice * 4);
+    if (out_l) std::memcpy(out_l + std::size_t(zl) * slice, rl.data(), slice * 4);
   }
 }
 
@@ -520,15 +523,16 @@ void ProceduralNeuritesSource::read(const BrickLayout& layout, BrickId id, std::
   brick_read_box(layout, id, first, n);
   const std::size_t count = std::size_t(n.x) * n.y * n.z;
   std::vector<std::uint8_t> inten(count);
-  std::vector<std::uint32_t> labels(count);
+  std::vector<std::uint32_t> labels(out_labels.empty() ? 0 : count);
+  std::uint32_t* lp = out_labels.empty() ? nullptr : labels.data();
   if (bounds) {
     // The read box (payload and apron) covers every culling block of the payload dilated by one voxel.
     const std::vector<ivec3> blocks = brick_culling_blocks(layout, id, block);
     LevelZeroBounds b(desc_.dims, layout.dims(id.level()), id.level(), block, blocks);
-    synthesize_and_reduce(params_of(desc_, seed_), pyramid_, id.level(), first, n, inten.data(), labels.data(), &b);
+    synthesize_and_reduce(params_of(desc_, seed_), pyramid_, id.level(), first, n, inten.data(), lp, &b);
     *bounds = b.take();
   } else {
-    synthesize(id.level(), first, n, inten.data(), labels.data());
+    synthesize(id.level(), first, n, inten.data(), lp);
   }
   fill_brick(layout, id, reinterpret_cast<const std::byte*>(inten.data()), first, n, 1, out_intensity);
   if (!out_labels.empty()) {

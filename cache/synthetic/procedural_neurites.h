@@ -70,7 +70,8 @@ class ProceduralNeuritesSource final : public VolumeSource {
   static Method method(int level);
 
   // The level-l voxels [first, first + n) (clamped to the level by the caller), intensity u8 and
-  // labels u32, x fastest; what read_brick copies from. Exposed for tests and statistics.
+  // labels u32 (null: intensity only), x fastest; what read_brick copies from. Exposed for tests and
+  // statistics.
   void synthesize(int level, ivec3 first, ivec3 n, std::uint8_t* intensity, std::uint32_t* labels) const;
 
  private:

@@ -52,7 +52,7 @@ std::string stats_to_json(const Stats& s) {
                   {"bricks_retried", s.cache.bricks_retried}, {"retries", s.cache.retries},
                   {"recovered", s.cache.recovered},   {"prefetched", s.cache.prefetched},
                   {"prefetch_hits", s.cache.prefetch_hits}, {"prefetch_pending", s.cache.prefetch_pending},
-                  {"stall", s.cache.stall},
+                  {"stall", s.cache.stall}, {"slots", s.cache.slots}, {"slot_bytes", s.cache.slot_bytes},
                   {"depth_passes", s.cache.depth_passes}, {"depth_pass", s.cache.depth_pass},
                   {"depth_pass_bytes", s.cache.depth_pass_bytes}};
     j["completeness"] = s.cache.completeness;

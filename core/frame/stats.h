@@ -49,6 +49,10 @@ struct CacheStats {
   double working_set_mb = 0;
   int working_set_level = 0;
   double cache_mb = 0;           // the cache's budget in use (slots x slot size)
+  // Bricks the cache holds at most, and the bytes of one: voxels with apron, labels when the frame
+  // can show them, the voxel mask.
+  std::uint64_t slots = 0;
+  std::uint64_t slot_bytes = 0;
   // Depth passes (cache/out_of_core/depth_passes.h: a pinned level whose working set does not fit):
   // their number (0: one pass), the one this frame cast, and the rays' states they hold.
   int depth_passes = 0;

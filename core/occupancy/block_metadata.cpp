@@ -41,53 +41,74 @@ void dilated_block(ivec3 dims, ivec3 lo, int block, ivec3& first, ivec3& end) {
   end = glm::min(lo + block + 1, dims);  // exclusive
 }
 
+namespace {
+
+// The range of `low` and `high` (T voxels) over [lo, hi), row by row with the type known: integer
+// types are compared as integers and converted once; floats flag a NaN (it compares false both ways,
+// so min/max alone would skip it).
+template <class T>
+void box_range(const VolumeView& low, const VolumeView& high, ivec3 lo, ivec3 hi, float& vmin, float& vmax,
+               bool& nan) {
+  const T* l = static_cast<const T*>(low.data);
+  const T* h = static_cast<const T*>(high.data);
+  const bool plain = l == h;
+  T mn = l[low.index(lo.x, lo.y, lo.z)], mx = h[high.index(lo.x, lo.y, lo.z)];
+  bool any_nan = false;
+  for (int z = lo.z; z < hi.z; ++z) {
+    for (int y = lo.y; y < hi.y; ++y) {
+      const std::uint64_t row = low.index(0, y, z);
+      const T* a = l + row;
+      const T* b = plain ? a : h + row;
+      for (int x = lo.x; x < hi.x; ++x) {
+        mn = a[x] < mn ? a[x] : mn;
+        mx = b[x] > mx ? b[x] : mx;
+        if constexpr (std::is_floating_point_v<T>) any_nan = any_nan || a[x] != a[x] || b[x] != b[x];
+      }
+    }
+  }
+  vmin = float(mn);
+  vmax = float(mx);
+  nan = any_nan || vmin != vmin || vmax != vmax;
+}
+
+// The ids of `labels` (T voxels) over [lo, hi), runs of one id listed once (sorted and made unique after).
+template <class T> void box_labels(const VolumeView& labels, ivec3 lo, ivec3 hi, std::vector<std::uint32_t>& out) {
+  const T* v = static_cast<const T*>(labels.data);
+  std::uint32_t last = std::uint32_t(v[labels.index(lo.x, lo.y, lo.z)]);
+  out.push_back(last);
+  for (int z = lo.z; z < hi.z; ++z) {
+    for (int y = lo.y; y < hi.y; ++y) {
+      const T* row = v + labels.index(0, y, z);
+      for (int x = lo.x; x < hi.x; ++x) {
+        const std::uint32_t id = std::uint32_t(row[x]);
+        if (id == last) continue;  // runs of one label are the common case
+        last = id;
+        out.push_back(id);
+      }
+    }
+  }
+}
+
+}  // namespace
+
 BlockMetadata compute_box_metadata(const VolumeView& low, const VolumeView& high, const VolumeView* labels,
                                    ivec3 lo, ivec3 hi) {
   ++g_computations;
   SL_CHECK(glm::all(glm::lessThan(lo, hi)) && glm::all(glm::greaterThanEqual(lo, ivec3(0))) &&
            glm::all(glm::lessThanEqual(hi, low.dims)));
-  SL_CHECK(high.dims == low.dims && (!labels || labels->dims == low.dims));
+  SL_CHECK(high.dims == low.dims && high.type == low.type && (!labels || labels->dims == low.dims));
   BlockMetadata m;
   m.computed = true;
-  float vmin = low.value(lo.x, lo.y, lo.z);
-  float vmax = high.value(lo.x, lo.y, lo.z);
-  bool nan = false;  // float volumes: NaN compares false both ways, so min/max alone would skip it
-  const auto scan = [&](auto one) {  // one: plain data (low is high), each voxel read once
-    for (int z = lo.z; z < hi.z; ++z) {
-      for (int y = lo.y; y < hi.y; ++y) {
-        for (int x = lo.x; x < hi.x; ++x) {
-          const float a = low.value(x, y, z);
-          const float b = decltype(one)::value ? a : high.value(x, y, z);
-          vmin = a < vmin ? a : vmin;
-          vmax = b > vmax ? b : vmax;
-          nan = nan || a != a || b != b;
-        }
-      }
-    }
-  };
-  if (low.data == high.data) {
-    scan(std::true_type{});
-  } else {
-    scan(std::false_type{});
-  }
+  float vmin = 0.0f, vmax = 0.0f;
+  bool nan = false;
+  dispatch_voxel(low.type, [&](auto tag) { box_range<decltype(tag)>(low, high, lo, hi, vmin, vmax, nan); });
   // A NaN voxel makes every sample it touches NaN, which reads the transfer function's low end and
   // passes iso comparisons as "not below": the conservative range for such a block is everything.
   m.min = nan ? -std::numeric_limits<float>::infinity() : vmin;
   m.max = nan ? std::numeric_limits<float>::infinity() : vmax;
   if (labels) {
     m.has_labels = true;
-    std::uint32_t last = labels->label(lo.x, lo.y, lo.z);
-    m.labels.push_back(last);
-    for (int z = lo.z; z < hi.z; ++z) {
-      for (int y = lo.y; y < hi.y; ++y) {
-        for (int x = lo.x; x < hi.x; ++x) {
-          const std::uint32_t id = labels->label(x, y, z);
-          if (id == last) continue;  // runs of one label are the common case
-          last = id;
-          m.labels.push_back(id);
-        }
-      }
-    }
+    dispatch_voxel(labels->type, [&](auto tag) { box_labels<decltype(tag)>(*labels, lo, hi, m.labels); });
     std::sort(m.labels.begin(), m.labels.end());
     m.labels.erase(std::unique(m.labels.begin(), m.labels.end()), m.labels.end());
     m.labels.shrink_to_fit();

@@ -224,7 +224,8 @@ TEST(CliOutOfCore, RenderConvergesAndReportsCacheStats) {
 TEST(CliOutOfCore, BadOptions) {
   const auto dir = test::scratch_dir();
   const std::string out = " --out " + (dir / "o").string();
-  auto r = test::run_sparseleap("render --volume builtin:neurites:256x256x256 --cache-mb 1 --brick 64 --size 8x8" + out);
+  // Three 66³ bricks with their u32 labels (shown: --enable) do not fit 1 MB.
+  auto r = test::run_sparseleap("render --volume builtin:neurites:256x256x256 --enable all --cache-mb 1 --brick 64 --size 8x8" + out);
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("--cache-mb"), std::string::npos) << r.output;
   r = test::run_sparseleap("render --volume procedural:neurites:0x10x10 --size 8x8" + out);

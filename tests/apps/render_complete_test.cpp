@@ -10,6 +10,8 @@
 
 #include <unistd.h>
 
+#include <nlohmann/json.hpp>
+
 #include "cache/formats/nrrd/nrrd.h"
 #include "core/scene/generate.h"
 #include "core/util/image.h"
@@ -145,6 +147,28 @@ TEST(RenderCompleteProcedural, SmallProceduralVolumeRendersComplete) {
   const std::string stats = test::read_text(dir / "p.json");
   EXPECT_FALSE(has(stats, "\"converged_at_frame\": -1")) << stats;
   EXPECT_TRUE(has(stats, "\"completeness\": 1.0")) << stats;
+}
+
+// The brick cache holds labels only when the render can show them (labels mode, --enable): a DVR
+// frame of a labelled volume, or of a procedural one (whose hashed ids nothing shows), has slots of
+// intensity and mask alone.
+TEST(RenderCacheSlots, LabelsAreCachedOnlyWhenShown) {
+  const fs::path dir = test::scratch_dir();
+  const auto slot_bytes = [&](const std::string& name, const std::string& args) {
+    const std::string json = (dir / (name + ".json")).string();
+    const test::RunResult r = test::run_sparseleap("render --backend cpu --size 32x32 --cache-mb 8 " + args + " --out " +
+                                                   (dir / name).string() + " --stats-json " + json + " 2>&1");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    return nlohmann::json::parse(test::read_text(json))["cache"]["slot_bytes"].get<std::uint64_t>();
+  };
+  const std::string labelled = "--volume builtin:organs:48x48x48";
+  const std::uint64_t dvr = slot_bytes("dvr", labelled);
+  const std::uint64_t masked = slot_bytes("masked", labelled + " --enable 2-3");
+  const std::uint64_t shown = slot_bytes("labels", labelled + " --mode labels --enable all");
+  const std::uint64_t labels = 34 * 34 * 34 * 2;  // u16 labels of the default 32³ brick and its apron
+  EXPECT_EQ(masked - dvr, (labels + 63) / 64 * 64) << "a slot's arrays take whole 64-byte lines";
+  EXPECT_EQ(shown, masked);
+  EXPECT_EQ(slot_bytes("procedural", "--volume procedural:neurites:256x256x256"), dvr);
 }
 
 }  // namespace

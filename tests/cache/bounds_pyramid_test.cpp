@@ -3,6 +3,7 @@
 // culling block's metadata covers every level-0 voxel below its dilated box — exactly, not just
 // conservatively — for in-memory volumes and the procedural source's exact levels.
 #include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
 
 #include <algorithm>
 #include <cmath>
@@ -245,6 +246,39 @@ TEST(BoundsPyramid, MergedPartsEqualTheWhole) {
     EXPECT_EQ(merged.labels, whole.labels);
   }
   EXPECT_GT(whole.labels.size(), 2u);
+}
+
+// reduce_min and reduce_max take whole 2³ groups four source rows at a time for integer types and the
+// partial groups at odd far faces one voxel at a time: every coarse voxel must be the least / largest of
+// the (up to) eight voxels below it, for any dims, odd or even.
+RC_GTEST_PROP(BoundsPyramid, IntegerMinAndMaxReductionsEqualAScanOfTheVoxelsBelow, ()) {
+  const VoxelType type = *rc::gen::element(VoxelType::U8, VoxelType::U16);
+  const ivec3 d(*rc::gen::inRange(1, 19), *rc::gen::inRange(1, 19), *rc::gen::inRange(1, 19));
+  const int top = type == VoxelType::U8 ? 255 : 65535;
+  // Dense values, or mostly background as segmented data is.
+  const bool sparse = *rc::gen::arbitrary<bool>();
+  const auto v = sparse ? random_volume(d, type, *rc::gen::arbitrary<std::uint32_t>(), std::uint32_t(top))
+                        : std::make_shared<Volume>(VolumeDesc{d, vec3(1.0f), type});
+  if (!sparse) {
+    const std::vector<int> values =
+        *rc::gen::container<std::vector<int>>(std::size_t(d.x) * d.y * d.z, rc::gen::inRange(0, top + 1));
+    std::size_t i = 0;
+    for (int z = 0; z < d.z; ++z)
+      for (int y = 0; y < d.y; ++y)
+        for (int x = 0; x < d.x; ++x) v->set(x, y, z, float(values[i++]));
+  }
+  const ivec3 h = (d + 1) / 2;
+  std::vector<std::byte> lo(std::size_t(h.x) * h.y * h.z * std::size_t(voxel_size(type))), hi(lo.size());
+  reduce_min(type, v->data(), d, lo.data(), 0, h.z);
+  reduce_max(type, v->data(), d, hi.data(), 0, h.z);
+  const VolumeView lv{lo.data(), h, vec3(2.0f), type}, hv{hi.data(), h, vec3(2.0f), type};
+  for (int z = 0; z < h.z; ++z)
+    for (int y = 0; y < h.y; ++y)
+      for (int x = 0; x < h.x; ++x) {
+        const Brute b = brute(*v, nullptr, 2 * ivec3(x, y, z), glm::min(2 * ivec3(x, y, z) + 2, d));
+        RC_ASSERT(lv.value(x, y, z) == b.min);
+        RC_ASSERT(hv.value(x, y, z) == b.max);
+      }
 }
 
 }  // namespace

@@ -177,5 +177,68 @@ TEST(VolumeSpec, ParsesAndRejects) {
   }
 }
 
+// without_labels: the same intensity and the same culling ranges as the source it wraps, bricks read
+// without their labels (the procedural source then skips their reduction) and bounds without label
+// lists; a source without labels is returned as it is.
+void expect_same_intensity_without_labels(const std::shared_ptr<const VolumeSource>& src, int brick, int block) {
+  ASSERT_TRUE(src->has_labels());
+  const std::shared_ptr<const VolumeSource> bare = without_labels(src);
+  EXPECT_FALSE(bare->has_labels());
+  EXPECT_EQ(bare->name(), src->name());
+  EXPECT_EQ(bare->pyramid(), src->pyramid());
+  EXPECT_EQ(without_labels(bare), bare);
+  const BrickLayout l = BrickLayout::make(src->desc(), brick);
+  const std::size_t n = l.stored_voxels();
+  std::vector<std::byte> want(n * std::size_t(voxel_size(src->desc().type))), got(want.size());
+  std::vector<std::byte> labels(n * std::size_t(voxel_size(src->label_type())));
+  int coarse_with_ids = 0;
+  for (int level = 0; level < l.levels; ++level) {
+    const ivec3 nb = l.bricks(level);
+    // The first, middle and last brick of each level.
+    for (const ivec3 b : {ivec3(0), nb / 2, nb - 1}) {
+      const BrickId id = BrickId::pack(level, b);
+      std::vector<BlockMetadata> want_bounds, got_bounds;
+      src->read_brick_bounded(l, id, want, labels, block, want_bounds);
+      std::fill(got.begin(), got.end(), std::byte{0xA5});
+      bare->read_brick_bounded(l, id, got, {}, block, got_bounds);
+      ASSERT_EQ(std::memcmp(want.data(), got.data(), want.size()), 0) << to_string(id);
+      std::fill(got.begin(), got.end(), std::byte{0xA5});
+      bare->read_brick(l, id, got, {});
+      ASSERT_EQ(std::memcmp(want.data(), got.data(), want.size()), 0) << to_string(id);
+      ASSERT_EQ(got_bounds.size(), want_bounds.size()) << to_string(id);
+      std::vector<BlockMetadata> bound(want_bounds.size());
+      const bool bounds = level > 0 && bare->bound_blocks(l, level, block, brick_culling_blocks(l, id, block), bound);
+      for (std::size_t i = 0; i < want_bounds.size(); ++i) {
+        EXPECT_EQ(got_bounds[i].min, want_bounds[i].min) << to_string(id);
+        EXPECT_EQ(got_bounds[i].max, want_bounds[i].max) << to_string(id);
+        EXPECT_FALSE(got_bounds[i].has_labels);
+        EXPECT_TRUE(got_bounds[i].labels.empty());
+        coarse_with_ids += want_bounds[i].has_labels && !want_bounds[i].labels.empty();
+        if (bounds) {
+          EXPECT_EQ(bound[i].min, want_bounds[i].min) << to_string(id);
+          EXPECT_EQ(bound[i].max, want_bounds[i].max) << to_string(id);
+          EXPECT_FALSE(bound[i].has_labels);
+        }
+      }
+    }
+  }
+  EXPECT_GT(coarse_with_ids, 0) << "the wrapped source's bounds must list labels for the test to mean anything";
+}
+
+TEST(WithoutLabels, MemorySourceGivesTheSameIntensityAndRanges) {
+  const GeneratedVolume g = generate_volume("neurites", {70, 45, 33}, 3);
+  auto src = std::make_shared<MemoryVolumeSource>(std::make_shared<Volume>(g.intensity),
+                                                  std::make_shared<Volume>(g.labels), "neurites", PyramidKind::Max);
+  expect_same_intensity_without_labels(src, 8, 4);
+  auto bare = std::make_shared<MemoryVolumeSource>(std::make_shared<Volume>(g.intensity), nullptr, "bare");
+  EXPECT_EQ(without_labels(bare).get(), bare.get());
+}
+
+TEST(WithoutLabels, ProceduralSourceGivesTheSameIntensityAndRangesOnEveryMethod) {
+  // Brick 16 over 600x520x300: levels 0-2 exact, 3-4 walked, 5-6 hashed, and coarser.
+  auto src = std::make_shared<ProceduralNeuritesSource>(ivec3(600, 520, 300), 4);
+  expect_same_intensity_without_labels(src, 16, 8);
+}
+
 }  // namespace
 }  // namespace sl

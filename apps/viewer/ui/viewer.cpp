@@ -248,7 +248,7 @@ Viewer::Viewer(const ViewerOptions& o)
       threads_(o.render.threads),
       s_(settings_from(o, checked_)),
       replay_(o.path.empty() ? std::nullopt : std::optional<CameraPath>(load_camera_path(o.path))),
-      scene_(app::load_source_scene(o.render.scene, o.render.out_of_core())),
+      scene_(app::load_source_scene(o.render.scene, o.render.out_of_core(), true)),
       levels_(s_.view.frame_budget_ms) {
   app::complete_settings(o.render, scene_, s_.view.render);  // same checks and iso default as `render`
   s_.view.has_labels = scene_.labels != nullptr;  // labels mode and picking need the label voxels

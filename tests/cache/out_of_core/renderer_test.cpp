@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <sys/resource.h>
 
+#include <algorithm>
 #include <cmath>
+#include <limits>
 #include <memory>
 
 #include "core/scene/generate.h"
@@ -295,6 +297,62 @@ TEST(OutOfCore, Procedural8TiBRendersInBoundedMemory) {
   EXPECT_NE(stats.find("\"page_table_bytes\""), std::string::npos);
   EXPECT_NE(stats.find("\"tree_bytes\""), std::string::npos);
   EXPECT_NE(stats.find("\"resident_mb\""), std::string::npos);
+}
+
+// OutOfCoreSettings::upload_budget bounds the bricks a frame makes resident; without a bound (what
+// `render` runs with) a frame takes every brick the loader has finished. Either way the frames
+// converge to the same image.
+TEST(OutOfCore, UploadBudgetBoundsEachFramesLoadsAndUnboundedTakesAllFinished) {
+  const Data d = neurites(ivec3(96, 96, 96), 4);
+  const TransferFunction tf = default_transfer_function(0, 255);
+  const Camera cam = default_camera(d.volume->desc().extent());
+  RenderSettings s;
+  s.width = s.height = 48;
+  const auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, "n");
+  Frame last[2];
+  std::uint64_t most_loads[2] = {0, 0};
+  for (const int unbounded : {0, 1}) {
+    OutOfCoreSettings os;
+    os.brick = 8;  // 1,728 level-0 bricks
+    os.lod = 0;
+    os.cache_mb = 64;
+    os.upload_budget = unbounded ? std::numeric_limits<std::size_t>::max() : 40;
+    OutOfCoreRenderer r(source, os, 8);
+    s.block = 8;
+    for (int i = 0; i < 400 && !r.converged(); ++i) {
+      last[unbounded] = r.render(OutOfCoreScene{&tf, nullptr, cam}, s);
+      most_loads[unbounded] = std::max(most_loads[unbounded], last[unbounded].stats.cache.loads);
+      r.wait_for_loads();
+    }
+    ASSERT_TRUE(r.converged()) << unbounded;
+  }
+  EXPECT_EQ(most_loads[0], 40u);
+  EXPECT_GT(most_loads[1], 400u) << "a frame after the loader finished takes what it finished";
+  EXPECT_EQ(last[0].image.rgba, last[1].image.rgba);
+  EXPECT_LT(last[1].stats.cache.frame, last[0].stats.cache.frame);
+}
+
+// A source given without its labels (what the commands give a renderer that shows none) fills slots
+// of intensity and mask only: more bricks in the same budget, the same DVR frame.
+TEST(OutOfCore, SourceWithoutLabelsHoldsMoreBricksAndRendersTheSameFrame) {
+  const Data d = neurites(ivec3(96, 80, 64), 6);
+  const TransferFunction tf = default_transfer_function(0, 255);
+  const Camera cam = default_camera(d.volume->desc().extent());
+  RenderSettings s;
+  s.width = s.height = 48;
+  OutOfCoreSettings os;
+  os.brick = 16;
+  os.lod = 0;
+  os.cache_mb = 16;
+  const auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, "n");
+  OutOfCoreRenderer with(source, os, 16), without(without_labels(source), os, 16);
+  const Frame a = converge(with, OutOfCoreScene{&tf, nullptr, cam}, s);
+  const Frame b = converge(without, OutOfCoreScene{&tf, nullptr, cam}, s);
+  EXPECT_EQ(a.image.rgba, b.image.rgba);
+  const std::uint64_t label_bytes = 18 * 18 * 18 * std::uint64_t(voxel_size(d.labels->type()));
+  EXPECT_EQ(a.stats.cache.slot_bytes - b.stats.cache.slot_bytes, (label_bytes + 63) / 64 * 64);  // rows of 64 bytes
+  EXPECT_GT(b.stats.cache.slots, a.stats.cache.slots);
+  EXPECT_LE(double(b.stats.cache.slots * b.stats.cache.slot_bytes), double(os.cache_mb) * (1 << 20));
 }
 
 }  // namespace

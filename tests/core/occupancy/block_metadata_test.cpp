@@ -3,8 +3,12 @@
 #include "core/occupancy/block_metadata.h"
 
 #include <gtest/gtest.h>
+#include <rapidcheck/gtest.h>
 
+#include <cmath>
 #include <cstring>
+#include <set>
+#include <vector>
 #include <limits>
 
 #include "core/occupancy/culling.h"
@@ -192,6 +196,70 @@ TEST(BlockMetadata, NanVoxelsMakeTheRangeEverything) {
   for (std::size_t k = 1; k < frames.size(); ++k) {
     EXPECT_EQ(std::memcmp(frames[k].image.rgba.data(), frames[0].image.rgba.data(),
                           frames[0].image.rgba.size() * sizeof(vec4)), 0) << to_string(s.method);
+  }
+}
+
+// compute_box_metadata reads each box with the voxel type known; it must give what reading every voxel
+// through VolumeView::value and ::label gives, for every voxel and label type, a separate low and high
+// view (the bounds pyramid's min and max levels), any box, and float NaNs anywhere.
+RC_GTEST_PROP(BlockMetadata, BoxMetadataEqualsAVoxelByVoxelScan, ()) {
+  const VoxelType type = *rc::gen::element(VoxelType::U8, VoxelType::U16, VoxelType::F32);
+  const VoxelType label_type = *rc::gen::element(VoxelType::U8, VoxelType::U16, VoxelType::U32);
+  const ivec3 dims(*rc::gen::inRange(1, 12), *rc::gen::inRange(1, 12), *rc::gen::inRange(1, 12));
+  const bool split = *rc::gen::arbitrary<bool>();  // low and high distinct views
+  const bool with_labels = *rc::gen::arbitrary<bool>();
+  const int nan_at = type == VoxelType::F32 && *rc::gen::inRange(0, 4) == 0
+                         ? *rc::gen::inRange(0, dims.x * dims.y * dims.z)
+                         : -1;
+  const std::size_t n = std::size_t(dims.x) * dims.y * dims.z;
+  const std::vector<int> raw = *rc::gen::container<std::vector<int>>(n, rc::gen::inRange(0, 70000));
+  const std::vector<int> rise = *rc::gen::container<std::vector<int>>(n, rc::gen::inRange(0, 9));
+  const std::vector<int> ids = *rc::gen::container<std::vector<int>>(n, rc::gen::inRange(0, 5));
+  Volume low(VolumeDesc{dims, vec3(1.0f), type}), high(low.desc()), labels(VolumeDesc{dims, vec3(1.0f), label_type});
+  const float top = type == VoxelType::U8 ? 255.0f : 65535.0f;
+  // Ids spread over the label type's range (u32 ids beyond 2^24 would not survive Volume::set's float).
+  const float id_scale = label_type == VoxelType::U8 ? 50.0f : label_type == VoxelType::U16 ? 16000.0f : 4000000.0f;
+  std::size_t i = 0;
+  for (int z = 0; z < dims.z; ++z)
+    for (int y = 0; y < dims.y; ++y)
+      for (int x = 0; x < dims.x; ++x, ++i) {
+        const float v = type == VoxelType::F32 ? float(raw[i]) * 0.25f - 9000.0f : std::min(float(raw[i]), top);
+        low.set(x, y, z, int(i) == nan_at ? std::nanf("") : v);
+        high.set(x, y, z, type == VoxelType::F32 ? v + float(rise[i]) : std::min(v + float(rise[i]), top));
+        labels.set(x, y, z, float(ids[i]) * id_scale);
+      }
+  ivec3 lo, hi;
+  for (int a = 0; a < 3; ++a) {
+    lo[a] = *rc::gen::inRange(0, dims[a]);
+    hi[a] = *rc::gen::inRange(lo[a] + 1, dims[a] + 1);
+  }
+  const VolumeView lv = low.view(), hv = split ? high.view() : low.view(), bv = labels.view();
+  const BlockMetadata m = compute_box_metadata(lv, hv, with_labels ? &bv : nullptr, lo, hi);
+  float want_min = std::numeric_limits<float>::infinity(), want_max = -std::numeric_limits<float>::infinity();
+  bool nan = false;
+  std::set<std::uint32_t> want_ids;
+  for (int z = lo.z; z < hi.z; ++z)
+    for (int y = lo.y; y < hi.y; ++y)
+      for (int x = lo.x; x < hi.x; ++x) {
+        const float a = lv.value(x, y, z), b = hv.value(x, y, z);
+        nan = nan || std::isnan(a) || std::isnan(b);
+        want_min = std::min(want_min, a);
+        want_max = std::max(want_max, b);
+        want_ids.insert(bv.label(x, y, z));
+      }
+  RC_ASSERT(m.computed);
+  if (nan) {
+    RC_ASSERT(m.min == -std::numeric_limits<float>::infinity());
+    RC_ASSERT(m.max == std::numeric_limits<float>::infinity());
+  } else {
+    RC_ASSERT(m.min == want_min);
+    RC_ASSERT(m.max == want_max);
+  }
+  RC_ASSERT(m.has_labels == with_labels);
+  if (with_labels) {
+    RC_ASSERT(m.labels == std::vector<std::uint32_t>(want_ids.begin(), want_ids.end()));
+  } else {
+    RC_ASSERT(m.labels.empty());
   }
 }
 
