@@ -6,6 +6,9 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <list>
+#include <mutex>
+#include <unordered_map>
 #include <vector>
 
 #include "core/scene/neurite_tubes.h"
@@ -22,6 +25,7 @@ using namespace neurites;
 constexpr int kExactLevels = 3;      // levels 0 .. 2 are exact
 constexpr int kPathLevels = 5;       // levels 3 .. 4 walk the paths; coarser ones use stand-ins
 constexpr float kFixed = 256.0f;     // mass fixed-point scale
+constexpr std::size_t kCellPathBytes = std::size_t(64) << 20;  // CellPathCache bound
 
 struct Capsule {  // segment a-b, radius varying linearly from ra to rb
   vec3 a, b;
@@ -166,8 +170,59 @@ void rasterize(const Capsule& c, ivec3 lo, ivec3 hi, ivec3 org, ivec3 ext, std::
   }
 }
 
+}  // namespace
+
+// A bounded, thread-safe LRU of cells' walked paths (cell_paths is deterministic, so a cached set is
+// the one a walk would give). A cell is walked outside the lock; two threads asking for the same
+// missing cell may both walk it, and the first inserted is kept.
+class CellPathCache {
+ public:
+  explicit CellPathCache(std::size_t max_bytes) : max_bytes_(max_bytes) {}
+
+  std::shared_ptr<const neurites::PathSet> get(const neurites::Params& p, ivec3 cell) {
+    // Cells per axis are at most 2^24 / neurites::kCell = 2^17: 21 bits each.
+    const std::uint64_t key =
+        (std::uint64_t(cell.z) << 42) | (std::uint64_t(cell.y) << 21) | std::uint64_t(cell.x);
+    {
+      std::lock_guard lock(mutex_);
+      if (const auto it = index_.find(key); it != index_.end()) {
+        lru_.splice(lru_.begin(), lru_, it->second);
+        return it->second->paths;
+      }
+    }
+    auto walked = std::make_shared<neurites::PathSet>();
+    neurites::cell_paths(p, cell, *walked);
+    const std::size_t bytes =
+        walked->nodes.size() * sizeof(neurites::PathNode) + walked->paths.size() * sizeof(neurites::PathSet::Path) + sizeof(neurites::PathSet);
+    std::lock_guard lock(mutex_);
+    if (const auto it = index_.find(key); it != index_.end()) return it->second->paths;
+    lru_.push_front(Entry{key, walked, bytes});
+    index_.emplace(key, lru_.begin());
+    bytes_ += bytes;
+    while (bytes_ > max_bytes_ && lru_.size() > 1) {
+      bytes_ -= lru_.back().bytes;
+      index_.erase(lru_.back().key);
+      lru_.pop_back();
+    }
+    return walked;
+  }
+
+ private:
+  struct Entry {
+    std::uint64_t key;
+    std::shared_ptr<const neurites::PathSet> paths;
+    std::size_t bytes;
+  };
+  std::mutex mutex_;
+  std::list<Entry> lru_;
+  std::unordered_map<std::uint64_t, std::list<Entry>::iterator> index_;
+  std::size_t bytes_ = 0, max_bytes_;
+};
+
+namespace {
+
 // The capsules (path segments and fibre samples) that can reach the inclusive level-0 box [lo0, hi0].
-std::vector<Capsule> capsules_near(const Params& p, ivec3 lo0, ivec3 hi0) {
+std::vector<Capsule> capsules_near(const Params& p, CellPathCache& cells, ivec3 lo0, ivec3 hi0) {
   std::vector<Capsule> caps;
   const auto keep = [&](const Capsule& c) {
     const float r = std::max(c.ra, c.rb) + kHalfWidth;
@@ -180,12 +235,11 @@ std::vector<Capsule> capsules_near(const Params& p, ivec3 lo0, ivec3 hi0) {
   };
   ivec3 c0, c1;
   cell_range(p, vec3(lo0), vec3(hi0 + 1), c0, c1);
-  PathSet paths;
   for (int cz = c0.z; cz <= c1.z; ++cz)
     for (int cy = c0.y; cy <= c1.y; ++cy)
       for (int cx = c0.x; cx <= c1.x; ++cx) {
-        paths.clear();
-        cell_paths(p, ivec3(cx, cy, cz), paths);
+        const std::shared_ptr<const PathSet> walked = cells.get(p, ivec3(cx, cy, cz));
+        const PathSet& paths = *walked;
         for (const PathSet::Path& path : paths.paths) {
           for (std::uint32_t k = path.begin + 1; k < path.end; ++k) {
             const PathNode &a = paths.nodes[k - 1], &b = paths.nodes[k];
@@ -285,11 +339,11 @@ class LevelZeroBounds {
 // slice each), every slab reduced 2x per level with pyramid.h — the MemoryVolumeSource definition, so
 // identical to its pyramid (mean or max) of the same level-0 data. `bounds` (optional) takes every
 // slab's level-0 voxels before they are reduced. out_l null: no labels (nor label lists in `bounds`).
-void synthesize_and_reduce(const Params& p, PyramidKind pyramid, int level, ivec3 first, ivec3 n,
+void synthesize_and_reduce(const Params& p, CellPathCache& cells, PyramidKind pyramid, int level, ivec3 first, ivec3 n,
                            std::uint8_t* out_i, std::uint32_t* out_l, LevelZeroBounds* bounds = nullptr) {
   const int s = 1 << level;
   const ivec3 lo0 = first * s, hi0 = glm::min((first + n) * s, p.dims) - 1;  // inclusive level-0 box
-  const std::vector<Capsule> caps = capsules_near(p, lo0, hi0);
+  const std::vector<Capsule> caps = capsules_near(p, cells, lo0, hi0);
 
   // Bin capsules by the level-l slice their level-0 z-range touches.
   std::vector<std::vector<std::uint32_t>> bins(std::size_t(n.z));
@@ -472,7 +526,7 @@ void hashed_splat(const Params& p, PyramidKind pyramid, int level, ivec3 first, 
 
 ProceduralNeuritesSource::ProceduralNeuritesSource(ivec3 dims, std::uint32_t seed, std::string name,
                                                    PyramidKind pyramid)
-    : seed_(seed), name_(std::move(name)), pyramid_(pyramid) {
+    : seed_(seed), name_(std::move(name)), pyramid_(pyramid), cell_paths_(std::make_shared<CellPathCache>(kCellPathBytes)) {
   for (int a = 0; a < 3; ++a) {
     if (dims[a] <= 0) throw InputError(name_, "dimensions must be positive");
   }
@@ -491,7 +545,7 @@ void ProceduralNeuritesSource::synthesize(int level, ivec3 first, ivec3 n, std::
                                           std::uint32_t* labels) const {
   const Params p = params_of(desc_, seed_);
   switch (method(level)) {
-    case Method::Exact: synthesize_and_reduce(p, pyramid_, level, first, n, intensity, labels); break;
+    case Method::Exact: synthesize_and_reduce(p, *cell_paths_, pyramid_, level, first, n, intensity, labels); break;
     case Method::PathSplat: path_splat(p, pyramid_, level, first, n, intensity, labels); break;
     case Method::LineSplat:
     case Method::CellSum: hashed_splat(p, pyramid_, level, first, n, intensity, labels); break;
@@ -529,7 +583,7 @@ void ProceduralNeuritesSource::read(const BrickLayout& layout, BrickId id, std::
     // The read box (payload and apron) covers every culling block of the payload dilated by one voxel.
     const std::vector<ivec3> blocks = brick_culling_blocks(layout, id, block);
     LevelZeroBounds b(desc_.dims, layout.dims(id.level()), id.level(), block, blocks);
-    synthesize_and_reduce(params_of(desc_, seed_), pyramid_, id.level(), first, n, inten.data(), lp, &b);
+    synthesize_and_reduce(params_of(desc_, seed_), *cell_paths_, pyramid_, id.level(), first, n, inten.data(), lp, &b);
     *bounds = b.take();
   } else {
     synthesize(id.level(), first, n, inten.data(), lp);

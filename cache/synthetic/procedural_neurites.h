@@ -19,7 +19,9 @@
 //  - CellSum (levels >= 7, voxels of >= kCell³): whole cells per voxel, each cell's mass from per-tube
 //    hashes (neurites::cell_summary); past 2³ cells per voxel, a regular subset of 2³ scaled up.
 // Fibres are sampled along their exact curves at every level (coarsely on the coarse ones). Mass is
-// accumulated in 1/256 fixed point, so parallel accumulation is deterministic.
+// accumulated in 1/256 fixed point, so parallel accumulation is deterministic. The exact levels keep
+// the walked paths of the cells they read lately (64 MiB, LRU): a cell lies under 64 level-0 bricks
+// of 32³, and walking its paths was most of each one's synthesis.
 //
 // The max pyramid (PyramidKind::Max, pyramid.h) by the same methods: the exact levels reduce with
 // reduce_max, so they equal MemoryVolumeSource's max pyramid; the splatted levels take, per voxel, the
@@ -38,11 +40,14 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 
 #include "cache/volume_source.h"
 
 namespace sl {
+
+class CellPathCache;
 
 class ProceduralNeuritesSource final : public VolumeSource {
  public:
@@ -83,6 +88,9 @@ class ProceduralNeuritesSource final : public VolumeSource {
   std::uint32_t seed_;
   std::string name_;
   PyramidKind pyramid_;
+  // The walked paths of the cells the exact levels read lately (a 128³ cell lies under 64 level-0
+  // bricks of 32³; walking them is most of such a brick's synthesis), bounded, shared by the threads.
+  std::shared_ptr<CellPathCache> cell_paths_;
 };
 
 // "procedural:neurites:XxYxZ[:seed]" -> a ProceduralNeuritesSource. Throws InputError(spec, reason)

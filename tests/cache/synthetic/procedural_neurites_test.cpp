@@ -70,6 +70,37 @@ TEST(ProceduralNeurites, DeterministicAcrossCallsAndThreads) {
   EXPECT_NE(read(src, layout, id).v, read(other_seed, layout, id).v);
 }
 
+// The exact levels keep the walked paths of the cells they read (a bounded cache shared by the threads):
+// a brick read after its neighbours, whose cells are then cached, on several threads at once, is the
+// brick a fresh source reads first.
+TEST(ProceduralNeurites, CachedCellPathsGiveTheBricksAFreshSourceGives) {
+  const ProceduralNeuritesSource warm(kHuge, 7);
+  const BrickLayout layout = BrickLayout::make(warm.desc());
+  for (const int level : {0, 1, 2}) {
+    SCOPED_TRACE(level);
+    const ivec3 c = layout.bricks(level) / 2;
+    std::vector<BrickId> ids;
+    for (int z = -1; z <= 1; ++z)
+      for (int y = -1; y <= 1; ++y)
+        for (int x = -1; x <= 1; ++x) ids.push_back(BrickId::pack(level, c + ivec3(x, y, z)));
+    std::vector<Brick> cached(ids.size());
+    std::vector<std::thread> threads;
+    for (int t = 0; t < 3; ++t) {
+      threads.emplace_back([&, t] {
+        for (std::size_t i = std::size_t(t); i < ids.size(); i += 3) cached[i] = read(warm, layout, ids[i]);
+      });
+    }
+    for (std::thread& t : threads) t.join();
+    for (std::size_t i = 0; i < ids.size(); i += 4) {  // again, now every cell is cached
+      const ProceduralNeuritesSource fresh(kHuge, 7);
+      const Brick want = read(fresh, layout, ids[i]);
+      EXPECT_EQ(cached[i].v, want.v) << to_string(ids[i]);
+      EXPECT_EQ(cached[i].l, want.l) << to_string(ids[i]);
+      EXPECT_EQ(read(warm, layout, ids[i]).v, want.v) << to_string(ids[i]);
+    }
+  }
+}
+
 // Neighbouring bricks agree on shared voxels: a brick's apron is its neighbour's payload, at every
 // method, so trilinear sampling has no seams.
 TEST(ProceduralNeurites, ApronsMatchNeighbours) {
