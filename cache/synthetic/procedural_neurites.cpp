@@ -67,13 +67,14 @@ void vote(std::uint64_t& slot, std::uint64_t v) {
 
 // Accumulates mass and label votes over a region of level voxels; safe from many threads.
 struct Accumulator {
-  int s;  // level voxel edge in level-0 voxels
+  int s;      // level voxel edge in level-0 voxels
+  int shift;  // log2(s): points here are inside the volume (>= 0), so a shift is the division
   ivec3 first, n, dims0;
   std::vector<std::uint64_t> mass, votes;
   std::vector<std::uint32_t> peak;  // the max pyramid: the brightest tube centre in each voxel
 
   Accumulator(int level, ivec3 f, ivec3 count, ivec3 d0)
-      : s(1 << level), first(f), n(count), dims0(d0),
+      : s(1 << level), shift(level), first(f), n(count), dims0(d0),
         mass(std::size_t(count.x) * count.y * count.z, 0), votes(mass.size(), 0), peak(mass.size(), 0) {}
 
   // Index of the region voxel holding level-0 point q, or -1 (outside the region or the volume).
@@ -82,7 +83,7 @@ struct Accumulator {
         q.z >= float(dims0.z)) {
       return -1;
     }
-    const ivec3 v = ivec3(glm::floor(q)) / s - first;
+    const ivec3 v = (ivec3(q) >> shift) - first;  // q >= 0: truncation is floor
     if (v.x < 0 || v.y < 0 || v.z < 0 || v.x >= n.x || v.y >= n.y || v.z >= n.z) return -1;
     return (std::int64_t(v.z) * n.y + v.y) * n.x + v.x;
   }
@@ -99,8 +100,8 @@ struct Accumulator {
   void add_peak_around(const vec3& q, float r, float brightness) {
     const vec3 lo = glm::max(q - r, vec3(0.0f)), hi = glm::min(q + r, vec3(dims0) - 1e-3f);
     if (glm::any(glm::greaterThan(lo, hi))) return;
-    const ivec3 a = glm::max(ivec3(glm::floor(lo)) / s - first, ivec3(0));
-    const ivec3 b = glm::min(ivec3(glm::floor(hi)) / s - first, n - 1);
+    const ivec3 a = glm::max((ivec3(lo) >> shift) - first, ivec3(0));  // lo, hi >= 0
+    const ivec3 b = glm::min((ivec3(hi) >> shift) - first, n - 1);
     for (int z = a.z; z <= b.z; ++z)
       for (int y = a.y; y <= b.y; ++y)
         for (int x = a.x; x <= b.x; ++x) add_peak((std::int64_t(z) * n.y + y) * n.x + x, brightness);
