@@ -226,6 +226,10 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   if (!(o.step >= 1e-3f) || o.step > 64.0f) throw InputError("--step", "step must be in [0.001, 64]");
   // A negative --cache-mb wraps to a huge unsigned budget (and then "out of memory").
   if (o.cache_mb > std::size_t(PTRDIFF_MAX)) throw InputError("--cache-mb", "must be positive");
+  // The same wrap would read as a huge budget, i.e. no bound at all.
+  if (o.upload_budget > std::size_t(PTRDIFF_MAX)) {
+    throw InputError("--upload-budget", "must be 0 (every loaded brick) or a number of bricks");
+  }
   if (o.threads < 0) throw InputError("--threads", "must be 0 (all cores) or a number of threads");
   if (o.scene.disk_cache_mb > std::size_t(PTRDIFF_MAX) >> 20) throw InputError("--disk-cache-mb", "must be positive");
   if (o.scene.disk_cache_mb > 0 && o.scene.disk_cache.empty()) {

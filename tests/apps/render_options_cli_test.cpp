@@ -63,6 +63,11 @@ TEST(RenderOptions, LodBiasMustBePositiveEverywhere) {
   expect_same_error("--cache-mb 8 --lod-bias -1", "sparseleap: error: --lod-bias: must be positive");
 }
 
+TEST(RenderOptions, UploadBudgetMustNotBeNegativeEverywhere) {
+  expect_same_error("--cache-mb 8 --upload-budget -1",
+                    "sparseleap: error: --upload-budget: must be 0 (every loaded brick) or a number of bricks");
+}
+
 TEST(RenderOptions, LabelsModeNeedsLabelsAndOutOfCoreTheEnabledSet) {
   expect_same_error("--volume builtin:sphere:16x16x16 --mode labels",
                     "sparseleap: error: --mode: labels mode needs a label volume (--labels)");
