@@ -21,7 +21,7 @@
 // Fibres are sampled along their exact curves at every level (coarsely on the coarse ones). Mass is
 // accumulated in 1/256 fixed point, so parallel accumulation is deterministic. The exact levels keep
 // the walked paths of the cells they read lately (64 MiB, LRU): a cell lies under 64 level-0 bricks
-// of 32³, and walking its paths was most of each one's synthesis.
+// of 32³, and walking its paths is most of such a brick's synthesis.
 //
 // The max pyramid (PyramidKind::Max, pyramid.h) by the same methods: the exact levels reduce with
 // reduce_max, so they equal MemoryVolumeSource's max pyramid; the splatted levels take, per voxel, the
@@ -89,7 +89,7 @@ class ProceduralNeuritesSource final : public VolumeSource {
   std::string name_;
   PyramidKind pyramid_;
   // The walked paths of the cells the exact levels read lately (a 128³ cell lies under 64 level-0
-  // bricks of 32³; walking them is most of such a brick's synthesis), bounded, shared by the threads.
+  // bricks of 32³), bounded, shared by the threads.
   std::shared_ptr<CellPathCache> cell_paths_;
 };
 

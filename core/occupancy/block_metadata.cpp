@@ -68,7 +68,7 @@ void box_range(const VolumeView& low, const VolumeView& high, ivec3 lo, ivec3 hi
   }
   vmin = float(mn);
   vmax = float(mx);
-  nan = any_nan || vmin != vmin || vmax != vmax;
+  nan = any_nan;  // the scan includes the first voxel, so a NaN anywhere is seen
 }
 
 // The ids of `labels` (T voxels) over [lo, hi), runs of one id listed once (sorted and made unique after).

@@ -308,6 +308,7 @@ TEST(OutOfCore, UploadBudgetBoundsEachFramesLoadsAndUnboundedTakesAllFinished) {
   const Camera cam = default_camera(d.volume->desc().extent());
   RenderSettings s;
   s.width = s.height = 48;
+  s.block = 8;
   const auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, "n");
   Frame last[2];
   std::uint64_t most_loads[2] = {0, 0};
@@ -318,7 +319,6 @@ TEST(OutOfCore, UploadBudgetBoundsEachFramesLoadsAndUnboundedTakesAllFinished) {
     os.cache_mb = 64;
     os.upload_budget = unbounded ? std::numeric_limits<std::size_t>::max() : 40;
     OutOfCoreRenderer r(source, os, 8);
-    s.block = 8;
     for (int i = 0; i < 400 && !r.converged(); ++i) {
       last[unbounded] = r.render(OutOfCoreScene{&tf, nullptr, cam}, s);
       most_loads[unbounded] = std::max(most_loads[unbounded], last[unbounded].stats.cache.loads);
