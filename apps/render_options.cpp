@@ -100,8 +100,8 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
       ->capture_default_str();
   c.add_option("--tight-boxes", o.tight_boxes,
                "on|off: with the voxel mask, SparseLeap lists come from leaf boxes (sparse subtrees flattened to "
-               "their leaves) shrunk to the cells whose samples can contribute (in core); the image and sample count "
-               "are the same, the segments shorter")
+               "their leaves) shrunk to the cells whose samples can contribute (in core; out of core from the resident "
+               "bricks' masks, dvr and labels); the image and sample count are the same, the segments shorter")
       ->capture_default_str();
   c.add_option("--simd", o.simd,
                "on|off: the CPU backend takes DVR samples eight at a time with AVX2 where the CPU has it (u8/u16, "

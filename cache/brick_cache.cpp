@@ -123,6 +123,12 @@ std::span<std::uint64_t> BrickCache::slot_mask(std::uint32_t slot) {
   return {masks_.get() + std::size_t(slot) * mask_words_, mask_words_};
 }
 
+std::span<const std::uint64_t> BrickCache::slot_mask(std::uint32_t slot) const {
+  SL_CHECK(slot < slot_count_);
+  if (!mask_words_) return {};
+  return {masks_.get() + std::size_t(slot) * mask_words_, mask_words_};
+}
+
 BrickCacheView BrickCache::view() {
   BrickCacheView v;
   v.voxels = voxels_.get();

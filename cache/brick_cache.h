@@ -189,6 +189,7 @@ class BrickCache {
   static constexpr std::uint64_t kNoMask = 0;
   bool masks_supported() const { return mask_words_ != 0; }
   std::span<std::uint64_t> slot_mask(std::uint32_t slot);
+  std::span<const std::uint64_t> slot_mask(std::uint32_t slot) const;
   // The slot's fine cells, derived from its mask (BrickCacheView::cells).
   std::span<std::uint64_t> slot_cells(std::uint32_t slot) {
     return {cells_.data() + std::size_t(slot) * BrickCacheView::kCellWords, BrickCacheView::kCellWords};

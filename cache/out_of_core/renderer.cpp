@@ -28,7 +28,8 @@ OutOfCoreRenderer::OutOfCoreRenderer(std::shared_ptr<const VolumeSource> source,
       occupancy_(source_, residency_.layout(), block,
                  default_metadata_capacity(settings, residency_.cache().slot_count(), block)),
       pressure_(residency_.layout().levels, settings),
-      prefetch_(residency_, occupancy_, settings.upload_budget) {
+      prefetch_(residency_, occupancy_, settings.upload_budget),
+      tight_(default_metadata_capacity(settings, residency_.cache().slot_count(), block)) {
   if (settings.lod >= layout().levels) {
     throw InputError("--lod", "level " + std::to_string(settings.lod) + " does not exist (the volume has " +
                                   std::to_string(layout().levels) + " levels)");
@@ -61,7 +62,9 @@ Frame OutOfCoreRenderer::render(const OutOfCoreScene& scene, const RenderSetting
   st.time_ms.tree = t.ms();
   occupancy_.fill_stats(st);
 
-  SkipInputs skip = skip_inputs(s, gen, st);
+  // The slots' voxel masks for this frame's culling, before the lists (tight boxes read them).
+  masks_ = residency_.update_masks(cull_, occupancy_.cull_key(), s.filter == Filter::Linear);
+  SkipInputs skip = skip_inputs(s, gen, lod, st);
   passes_.apply(skip.pass_t0, skip.pass_t1, skip.rays);
   cast(scene, s, gen, lod, skip, frame);
   fill_cache_stats(start, lod, st);
@@ -125,15 +128,30 @@ OutOfCoreRenderer::MissResolution OutOfCoreRenderer::answer_last_frame() {
   return resolved;
 }
 
-SkipInputs OutOfCoreRenderer::skip_inputs(const RenderSettings& s, const RayGenerator& gen, Stats& st) {
+SkipInputs OutOfCoreRenderer::skip_inputs(const RenderSettings& s, const RayGenerator& gen, const FrameLod& lod,
+                                          Stats& st) {
   SkipInputs skip;
   skip.method = s.method;
   skip.clip = clip_;
   if (s.method == SkipMethod::SparseLeap) {
-    pipeline_.geometry(occupancy_.tree(), st);
+    const OccupancyTree& tree = occupancy_.tree();
+    const OccupancyGeometry& geometry = pipeline_.geometry(tree, st);
+    // With the slots' voxel masks, the leaves shrunk to their set cells (tight_boxes.h): sparse
+    // subtrees flattened to their leaves first, as in core, so that those leaves shrink too.
+    const OccupancyGeometry* tight = nullptr;
+    tight_shrunk_ = tight_kept_ = 0;
+    if (s.tight_boxes && masks_) {
+      const Timer t;
+      tight_geometry_ = tight_.tighten(tree, flatten_sparse_subtrees(tree, geometry), layout(), residency_.cache(),
+                                       residency_.page_table(), occupancy_.cull_key(), lod.lod, gen);
+      tight = &tight_geometry_;
+      tight_shrunk_ = tight_.shrunk();
+      tight_kept_ = tight_.kept();
+      st.time_ms.geometry += t.ms();
+    }
     // The short-gap threshold stays in level-0 steps: conservative for any coarser grid.
     const float eps = s.gap_eps * s.step * source_->desc().min_spacing();
-    skip.lists = pipeline_.lists(occupancy_.tree(), s.method, gen, eps, st);
+    skip.lists = pipeline_.lists(tree, s.method, gen, eps, st, tight);
   }
   return skip;
 }
@@ -148,7 +166,7 @@ void OutOfCoreRenderer::cast(const OutOfCoreScene& scene, const RenderSettings& 
   request.vbox = Box3{vec3(0.0f), d.extent()};
   request.skip = skip;
   request.frame = frame_;
-  request.host = residency_.host_view(residency_.update_masks(cull_, occupancy_.cull_key(), s.filter == Filter::Linear));
+  request.host = residency_.host_view(masks_);
   shortfall_.assign(SampleShortfall::kStripes * SampleShortfall::kStride, 0);
   request.host.shortfall.counters = shortfall_.data();
   request.host.shortfall.footprint = lod.footprint;

@@ -19,6 +19,7 @@
 #include "cache/out_of_core/prefetch.h"
 #include "cache/out_of_core/residency.h"
 #include "cache/out_of_core/settings.h"
+#include "cache/out_of_core/tight_boxes.h"
 #include "cache/volume_source.h"
 #include "core/cast/sample_clip.h"
 #include "core/frame/pipeline.h"
@@ -75,6 +76,10 @@ class OutOfCoreRenderer {
   BrickId brick_in_slot(std::uint32_t slot) const { return residency_.cache().brick_in(slot); }
   std::uint32_t slot_last_used(std::uint32_t slot) const { return residency_.cache().last_used(slot); }
   std::uint64_t evictions() const { return residency_.cache().evictions(); }
+  // Of the last frame's NON_EMPTY leaf boxes: shrunk to their slots' set cells (tight_boxes.h), and
+  // left whole (bricks not resident, or samples straddling levels). Both 0 without tight boxes.
+  std::size_t tight_boxes_shrunk() const { return tight_shrunk_; }
+  std::size_t tight_boxes_kept() const { return tight_kept_; }
 
  private:
   // What resolving the misses found: bricks known non-empty and not resident, how many of them were
@@ -109,7 +114,7 @@ class OutOfCoreRenderer {
   void request_loads(MissLoads& loads, MissResolution& res);
   float load_priority(BrickId id) const;
   void order_by_priority(std::vector<BrickId>& ids, std::vector<bool>* with) const;
-  SkipInputs skip_inputs(const RenderSettings& s, const RayGenerator& gen, Stats& st);
+  SkipInputs skip_inputs(const RenderSettings& s, const RayGenerator& gen, const FrameLod& lod, Stats& st);
   void cast(const OutOfCoreScene& scene, const RenderSettings& s, const RayGenerator& gen, const FrameLod& lod,
             const SkipInputs& skip, Frame& frame);
   void touch_used_bricks();
@@ -136,6 +141,10 @@ class OutOfCoreRenderer {
   DepthPasses passes_;
   std::vector<std::uint64_t> shortfall_;  // the frame's SampleShortfall counters (completeness)
   FramePipeline pipeline_;
+  TightBoxes tight_;
+  OccupancyGeometry tight_geometry_;  // this frame's tight boxes (the lists' boxes)
+  std::size_t tight_shrunk_ = 0, tight_kept_ = 0;
+  bool masks_ = false;  // the slots' voxel masks are built for this frame (Residency::update_masks)
   SampleClip clip_;
   CullParams cull_;  // this frame's culling inputs (the voxel masks are built for them)
   // Whether the values of bricks culled empty reach the image: iso mode (which side of the iso value

@@ -235,8 +235,14 @@ TEST_P(PinnedLevelInDepthPasses, HalfTheWorkingSetConvergesToTheInCoreFrame) {
   auto source = std::make_shared<MemoryVolumeSource>(d.volume, d.labels, GetParam().kind);
   for (SkipMethod method : {SkipMethod::SparseLeap, SkipMethod::None}) {
     SCOPED_TRACE(name(method));
-    const RenderSettings so = with_method(ref.s, method);
-    const double working_set = working_set_mb(source, ref, so);
+    RenderSettings so = with_method(ref.s, method);
+    double working_set = working_set_mb(source, ref, so);
+    if (working_set < 2.0) {
+      // Tight boxes leave the thin sets a working set too small to halve in whole MB: whole boxes then
+      // (the denser sets run the passes with tight boxes).
+      so.tight_boxes = false;
+      working_set = working_set_mb(source, ref, so);
+    }
     const OutOfCoreSettings os = level_zero(std::max<std::size_t>(1, std::size_t(0.5 * working_set)));
     OutOfCoreRenderer r(source, os, so.block);
     const Frame f = converge(r, ref.scene(ref.cam), so, 400);
