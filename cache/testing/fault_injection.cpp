@@ -121,8 +121,9 @@ int FaultInjectingSource::attempts(BrickId id) const {
   return it == attempts_.end() ? 0 : it->second;
 }
 
-void FaultInjectingSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
-                                      std::span<std::byte> out_labels) const {
+template <class Read>
+void FaultInjectingSource::faulty_read(BrickId id, std::span<std::byte> out_intensity, std::span<std::byte> out_labels,
+                                       Read&& read) const {
   int attempt = 0;
   {
     std::lock_guard lock(mutex_);
@@ -139,7 +140,7 @@ void FaultInjectingSource::read_brick(const BrickLayout& layout, BrickId id, std
     throw TransientError(name(), "injected transient error" + where + " (attempt " + std::to_string(attempt + 1) +
                                      " of " + std::to_string(f.failing_attempts) + " failing)");
   }
-  inner_->read_brick(layout, id, out_intensity, out_labels);
+  read();
   if (f.kind == FaultKind::ShortRead && fails) {
     // Part of the brick arrived; the rest of the buffer is garbage, as after an interrupted transfer.
     const std::size_t total = out_intensity.size() + out_labels.size();
@@ -153,6 +154,18 @@ void FaultInjectingSource::read_brick(const BrickLayout& layout, BrickId id, std
     throw TransientError(name(), "short read: " + std::to_string(got) + " of " + std::to_string(total) +
                                      " bytes (injected" + where + ")");
   }
+}
+
+void FaultInjectingSource::read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                                      std::span<std::byte> out_labels) const {
+  faulty_read(id, out_intensity, out_labels, [&] { inner_->read_brick(layout, id, out_intensity, out_labels); });
+}
+
+void FaultInjectingSource::read_brick_bounded(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                                              std::span<std::byte> out_labels, int block,
+                                              std::vector<BlockMetadata>& bounds) const {
+  faulty_read(id, out_intensity, out_labels,
+              [&] { inner_->read_brick_bounded(layout, id, out_intensity, out_labels, block, bounds); });
 }
 
 }  // namespace sl

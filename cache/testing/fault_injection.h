@@ -11,6 +11,7 @@
 #include <mutex>
 #include <string>
 #include <unordered_map>
+#include <vector>
 
 #include "cache/brick.h"
 #include "cache/volume_source.h"
@@ -57,12 +58,28 @@ class FaultInjectingSource final : public VolumeSource {
   // read leaves the rest of the buffer overwritten (0xA5), so a loader that kept it would be caught.
   void read_brick(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
                   std::span<std::byte> out_labels) const override;
+  // The same faults, on a read of the brick with its culling bounds.
+  void read_brick_bounded(const BrickLayout& layout, BrickId id, std::span<std::byte> out_intensity,
+                          std::span<std::byte> out_labels, int block,
+                          std::vector<BlockMetadata>& bounds) const override;
+  // The inner source's bounds and pyramid: faults hit brick reads only, so a wrapped source culls
+  // and shows what it does unwrapped.
+  bool bound_blocks(const BrickLayout& layout, int level, int block, std::span<const ivec3> blocks,
+                    std::span<BlockMetadata> out) const override {
+    return inner_->bound_blocks(layout, level, block, blocks, out);
+  }
+  PyramidKind pyramid() const override { return inner_->pyramid(); }
 
   const FaultSpec& spec() const { return spec_; }
   // Reads of `id` so far (its next attempt number).
   int attempts(BrickId id) const;
 
  private:
+  // Counts the attempt, delays it, fails it or calls read(), as the spec says for brick `id`.
+  template <class Read>
+  void faulty_read(BrickId id, std::span<std::byte> out_intensity, std::span<std::byte> out_labels,
+                   Read&& read) const;
+
   std::shared_ptr<const VolumeSource> inner_;
   FaultSpec spec_;
   mutable std::mutex mutex_;

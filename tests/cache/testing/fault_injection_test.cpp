@@ -196,6 +196,53 @@ TEST(FaultInjectingSource, EachKindFailsAsTheSpecSays) {
   }
 }
 
+// Faults hit brick reads only: the wrapped source's bounds and pyramid are the inner source's, and a
+// read with bounds fails as a plain read does and otherwise returns the inner source's voxels and bounds.
+TEST(FaultInjectingSource, ForwardsBoundsAndPyramidAndFaultsBoundedReads) {
+  const GeneratedVolume g = generate_volume("neurites", {40, 30, 20}, 3);
+  const auto inner = std::make_shared<MemoryVolumeSource>(std::make_shared<Volume>(g.intensity), nullptr, "neurites",
+                                                          PyramidKind::Max);
+  const BrickLayout layout = BrickLayout::make(inner->desc(), 8);
+  ASSERT_GE(layout.levels, 3);
+  FaultSpec spec;
+  spec.permanent = 0.3;
+  spec.seed = 11;
+  const FaultInjectingSource src(inner, spec);
+  EXPECT_EQ(src.pyramid(), PyramidKind::Max);
+
+  const int block = 4;
+  const std::vector<ivec3> blocks = {{0, 0, 0}, {1, 0, 0}, {0, 1, 1}};
+  std::vector<BlockMetadata> want_bounds(blocks.size()), got_bounds(blocks.size());
+  ASSERT_TRUE(inner->bound_blocks(layout, 1, block, blocks, want_bounds));
+  ASSERT_TRUE(src.bound_blocks(layout, 1, block, blocks, got_bounds));
+  for (std::size_t i = 0; i < blocks.size(); ++i) {
+    EXPECT_EQ(got_bounds[i].min, want_bounds[i].min);
+    EXPECT_EQ(got_bounds[i].max, want_bounds[i].max);
+  }
+
+  Buffers want(layout, *inner), got(layout, *inner);
+  int healthy = 0, failing = 0;
+  for (const BrickId id : bricks_of_kind(layout, spec, FaultKind::None)) {
+    if (id.level() == 0) continue;
+    std::vector<BlockMetadata> a, b;
+    inner->read_brick_bounded(layout, id, want.intensity, {}, block, a);
+    src.read_brick_bounded(layout, id, got.intensity, {}, block, b);
+    EXPECT_EQ(got.intensity, want.intensity);
+    ASSERT_EQ(b.size(), a.size());
+    ASSERT_FALSE(a.empty()) << "a coarse brick of a bounded source comes with its bounds";
+    for (std::size_t i = 0; i < a.size(); ++i) EXPECT_EQ(b[i].max, a[i].max);
+    ++healthy;
+  }
+  for (const BrickId id : bricks_of_kind(layout, spec, FaultKind::Permanent)) {
+    std::vector<BlockMetadata> b;
+    EXPECT_THROW(src.read_brick_bounded(layout, id, got.intensity, {}, block, b), InputError);
+    EXPECT_EQ(src.attempts(id), 1);
+    ++failing;
+  }
+  EXPECT_GT(healthy, 0);
+  EXPECT_GT(failing, 0);
+}
+
 TEST(FaultInjectingSource, CountsAttemptsAcrossThreads) {
   const auto inner = small_source();
   const BrickLayout layout = BrickLayout::make(inner->desc(), 8);
