@@ -106,7 +106,9 @@ struct BrickLayout {
   }
   // Exact: scaling by a power of two only changes the exponent.
   SL_HOST_DEVICE vec3 level_spacing(int level) const { return spacing * float(1 << level); }
-  SL_HOST_DEVICE vec3 level_inv_spacing(int level) const { return inv_spacing / float(1 << level); }
+  // inv_spacing / 2^level without a division: 2^-level is exact, so the product is the same real
+  // number as the quotient, rounded the same way.
+  SL_HOST_DEVICE vec3 level_inv_spacing(int level) const { return inv_spacing * (1.0f / float(1 << level)); }
 
   SL_HOST_DEVICE bool contains(BrickId id) const {
     if (!id.valid() || id.level() >= levels) return false;

@@ -35,6 +35,9 @@ struct SampleShortfall {
   LodParams footprint;                         // the frame's level of detail without pressure
   vec3 eye{0.0f};                              // ray origin of a perspective view (t = distance)
   bool pressured = false;                      // the cast's level of detail is coarser than footprint
+  // `counters` is one stripe (kStride words) of one CPU thread's screen tile, added to plainly; the
+  // tile adds it to the frame's counters once (add_words) instead of an atomic per span.
+  bool local = false;
 
   SL_HOST_DEVICE SL_INLINE void count(const vec3& p, int level, bool complete) const {
     if (!complete) add(0);
@@ -53,6 +56,13 @@ struct SampleShortfall {
   SL_HOST_DEVICE void count_left_out(std::uint64_t n) const {
     if (counters != nullptr && n != 0) add(2, n);
   }
+  // Adds a tile's local stripe (see `local`) to these counters.
+  SL_HOST_DEVICE void add_words(const std::uint64_t* w) const {
+    if (counters == nullptr) return;
+    for (int which = 0; which < 3; ++which) {
+      if (w[which] != 0) add(which, w[which]);
+    }
+  }
   // count() of many samples at once: `incomplete` not served at their level, `coarsened` finer by footprint.
   SL_HOST_DEVICE void count_many(std::uint64_t incomplete, std::uint64_t coarsened) const {
     if (counters == nullptr) return;
@@ -62,6 +72,12 @@ struct SampleShortfall {
 
  private:
   SL_HOST_DEVICE void add(int which, std::uint64_t n = 1) const {
+#if !defined(__CUDA_ARCH__)
+    if (local) {
+      counters[which] += n;
+      return;
+    }
+#endif
     // Threads' stacks lie whole megabytes apart: hash the page number so they land on different lines.
     const std::uint64_t page = std::uint64_t(reinterpret_cast<std::uintptr_t>(&which)) >> 12;
     const std::uint32_t stripe = std::uint32_t((page * 0x9E3779B97F4A7C15ull) >> 60) % kStripes;
@@ -203,6 +219,13 @@ struct VirtualSampler {
     return occupied ? kOccupied : kClear;
   }
 
+  // Whether fine_cell(p) would answer kClear or kOccupied: the brick serving p is resident, with its
+  // fine cells and voxel mask.
+  SL_HOST_DEVICE SL_INLINE bool resident_cells(const vec3& p, const SampleContext& c) const {
+    const Cursor& k = locate(p, c);
+    return k.entry.is_resident() && cache.cells != nullptr && k.mask != nullptr;
+  }
+
   // Where the ray leaves the box [lo, hi) of voxels of spacing h: its far planes.
   SL_HOST_DEVICE SL_INLINE static float box_exit(const Ray& ray, const vec3& inv_dir, const ivec3& lo, const ivec3& hi,
                                                 const vec3& h) {
@@ -232,6 +255,16 @@ struct VirtualSampler {
   }
 
 #if !defined(__CUDA_ARCH__)
+  // The CPU's tile loop (core/frame/cast_tiles.h) counts each screen tile on its own copy of the sampler
+  // into the tile's words (count_tile_into), then adds them to the frame's (add_tile_counts).
+  static constexpr int kTileCountWords = int(SampleShortfall::kStride);
+  void count_tile_into(std::uint64_t* words) {
+    if (shortfall.counters == nullptr) return;
+    shortfall.counters = words;
+    shortfall.local = true;
+  }
+  void add_tile_counts(const std::uint64_t* words) const { shortfall.add_words(words); }
+
   // The cursor's slot as the CPU batch's volume (core/cast/sample_batch.h, DvrBatchArgs::slot), where the
   // brick serving the wanted one (itself, or the resident ancestor standing in for it) is resident with
   // its voxel mask and its voxels are u8 or u16: the batch reads the voxels and mask bits sample() and

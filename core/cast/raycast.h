@@ -397,12 +397,11 @@ struct RayCaster {
       const float t = t_entry + float(k) * p.dt;
       if (t >= occupied_until) {
         if (lod_varies) ctx.level = p.lod.level_at(t);
-        float t_exit, uniform = 0.0f;
-        const auto cell = volume.fine_cell(ray, inv_dir, ray.at(t), ctx, t_exit, uniform);
 #if !defined(__CUDA_ARCH__)
         if constexpr (requires(DvrBatchArgs& b) { volume.slot_batch(b); }) {
-          // In a resident brick the scan of its mask crosses clear cells about as fast as the leaps.
-          if (batch && (cell == Sampler::kOccupied || cell == Sampler::kClear)) {
+          // In a resident brick (where fine_cell would answer kClear or kOccupied) the scan of its
+          // mask crosses clear cells about as fast as the leaps: the cell itself is not needed.
+          if (batch && volume.resident_cells(ray.at(t), ctx)) {
             int stop = k;
             const int r = slot_run(ray, inv_dir, t_entry, k, k1, acc, ctx, clear_v, lod_varies, stop, leapt, slot_fits);
             if (r > 0) {  // [k, stop) taken: on from stop, asking its cell afresh
@@ -416,6 +415,8 @@ struct RayCaster {
           }
         }
 #endif
+        float t_exit, uniform = 0.0f;
+        const auto cell = volume.fine_cell(ray, inv_dir, ray.at(t), ctx, t_exit, uniform);
         if (cell == Sampler::kOccupied) {
           occupied_until = t_exit;
         } else if (cell == Sampler::kClear || (cell == Sampler::kUniform && clear_value(uniform, clear_v))) {
@@ -483,10 +484,10 @@ struct RayCaster {
     b.dir = ray.dir;
     b.t_entry = t_entry;
     run.ok = true;
-    const std::uint32_t taken = acc.samples;
-    const bool alive = run.march_slot(ray, t_entry, k, end, acc, ctx, clear_v, stop);
+    std::uint32_t taken = 0;
+    const bool alive = run.march_slot(ray, t_entry, k, end, acc, ctx, clear_v, stop, taken);
     // Every sample visited was taken or left out, as the one-by-one walk counts them.
-    leapt += std::uint64_t(stop - k) - (acc.samples - taken);
+    leapt += std::uint64_t(stop - k) - taken;
     volume.count_run(ray, t_entry, p.dt, k, stop, 0, ctx);
     return alive ? 1 : -1;
   }

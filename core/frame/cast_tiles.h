@@ -58,7 +58,7 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
   detail::Counters counters;
   Timer timer;
   const BatchPlans<Sampler> plans(caster, &skip.fine);  // once per frame, not per span
-  parallel_for_tiles(img.width, img.height, [&](int x0, int y0, int x1, int y1) {
+  const auto cast_tile = [&](const RayCaster<Sampler>& tc, int x0, int y0, int x1, int y1) {
     std::uint64_t samples = 0, useful = 0, rays = 0, dc_sum = 0;
     std::uint32_t misses = 0, dc_max = 0, dc_min = 0xFFFFFFFFu;
     // pixel_span for the tile's pixels, four at a time: its rays (detail::tile_rays) and their slab
@@ -86,9 +86,9 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
           const float t_entry = t0[lane] > 0.0f ? t0[lane] : 0.0f, t_exit = t1[lane];
           const std::size_t i = std::size_t(y) * img.width + x;
           RayAccum acc = skip.rays != nullptr ? skip.rays[i] : RayAccum{};
-          const std::uint32_t dc = detail::cast_pixel(caster, skip, i, ray, t_entry, t_exit, acc, misses, &plans);
+          const std::uint32_t dc = detail::cast_pixel(tc, skip, i, ray, t_entry, t_exit, acc, misses, &plans);
           if (skip.rays != nullptr) skip.rays[i] = acc;
-          img.rgba[i] = caster.resolve(acc);
+          img.rgba[i] = tc.resolve(acc);
           samples_ch[i] = float(acc.samples);
           dc_ch[i] = float(dc);
           if (depth_ch) depth_ch[i] = acc.hit_t;
@@ -108,6 +108,23 @@ void cast_frame(const RayCaster<Sampler>& caster, const RayGenerator& gen, const
     counters.dc_sum += dc_sum;
     detail::atomic_max(counters.dc_max, dc_max);
     detail::atomic_min(counters.dc_min, dc_min);
+  };
+  parallel_for_tiles(img.width, img.height, [&](int x0, int y0, int x1, int y1) {
+    if constexpr (requires(Sampler& s, std::uint64_t* w) {
+                    s.count_tile_into(w);
+                    s.add_tile_counts(w);
+                  }) {
+      // A sampler with counters of its own (out of core: the sample shortfall, cache/virtual_sampler.h)
+      // counts the tile on its own copy into the tile's words, added to the frame's once instead of
+      // by an atomic add per span.
+      std::uint64_t words[Sampler::kTileCountWords] = {};
+      RayCaster<Sampler> local = caster;
+      local.volume.count_tile_into(words);
+      cast_tile(local, x0, y0, x1, y1);
+      caster.volume.add_tile_counts(words);
+    } else {
+      cast_tile(caster, x0, y0, x1, y1);
+    }
   });
   frame.stats.time_ms.raycast = timer.ms();
   record_cast_counters(CastCounters::from(counters), skip.method != SkipMethod::None, frame.stats);
