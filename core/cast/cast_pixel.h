@@ -101,6 +101,42 @@ void cast_scanned_segments(const RayCaster<Sampler>& caster, const SkipInputs& s
 }
 #endif
 
+#if !defined(__CUDA_ARCH__)
+// cast_pixel's segment walk where the out-of-core batch takes a ray's known spans together
+// (RayCaster::march_spans): handed over a chunk at a time; an UNKNOWN segment is marched on its own
+// after the chunk (its miss counted as cast_pixel counts it).
+template <class Sampler>
+void cast_slot_segments(const RayCaster<Sampler>& caster, const SkipInputs& skip, const RayEvent* ev, std::uint32_t n,
+                        std::uint32_t segments, const Ray& ray, float t_entry, float t_exit, int k_end, int kc0,
+                        int kc1, RayAccum& acc, std::uint32_t& misses, const BatchPlans<Sampler>* plans) {
+  constexpr int kChunk = RayCaster<Sampler>::kSpanChunk;
+  SampleSpan spans[kChunk];
+  int ns = 0;
+  for (std::uint32_t i = 0; i < segments; ++i) {
+    const RaySegment seg = list_segment(ev, n, i, t_exit);
+    if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
+    int k0, k1;
+    span_samples(seg.t0, seg.t1, t_entry, caster.p.inv_dt, kc0, kc1, k0, k1);
+    k1 = k1 < k_end ? k1 : k_end;  // march_span's bound
+    if (seg.cls == OccupancyClass::Unknown) {
+      if (ns > 0 && !caster.march_spans(ray, t_entry, spans, ns, acc)) return;
+      ns = 0;
+      if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, true, &skip.fine, plans);
+      ++misses;
+      if (acc.done) return;
+      continue;
+    }
+    if (k0 >= k1) continue;
+    spans[ns++] = SampleSpan{k0, k1};
+    if (ns == kChunk) {
+      ns = 0;
+      if (!caster.march_spans(ray, t_entry, spans, kChunk, acc)) return;
+    }
+  }
+  if (ns > 0) caster.march_spans(ray, t_entry, spans, ns, acc);
+}
+#endif
+
 // One pixel: walks the method's spans on the global sample grid (Alg. 6 for segment lists; kd-restart
 // for the octree). Returns the depth complexity: segments of the list, or octree nodes visited.
 // `misses` counts the UNKNOWN segments sampled (occupancy misses, resolved out of core). `plans`: the
@@ -170,6 +206,15 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
       const RayEvent* ev = skip.lists.list(pixel);
       const std::uint32_t segments = segment_count(ev, n);
 #if !defined(__CUDA_ARCH__)
+      if constexpr (requires(DvrBatchArgs& b) { caster.volume.slot_batch(b); }) {
+        // Out of core on the CPU, a ray's known spans go to the batch together (march_spans): the
+        // spans that share a resident brick share one scan of its slot.
+        if (!exact && caster.slot_spans_apply(&skip.fine)) {
+          cast_slot_segments(caster, skip, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc, misses,
+                             plans);
+          return segments;
+        }
+      }
       if constexpr (BatchMarch<Sampler>::kElem > 0) {
         // On the CPU, where the batch scans the voxel mask, the ray's spans share one queue of found
         // samples (BatchMarch::scan_spans): the same samples, taken in fuller batches.

@@ -493,6 +493,128 @@ struct RayCaster {
   }
 #endif
 
+#if !defined(__CUDA_ARCH__)
+ public:
+  // The known spans cast_pixel hands to march_spans at once, at most.
+  static constexpr int kSpanChunk = 32;
+
+  // Whether march() of a known span would take march_leaping's batched slot runs (out of core on the
+  // CPU: DVR through the eight-sample batch, trilinear, leaps on, no fine view), so that march_spans
+  // may take a ray's known spans together.
+  bool slot_spans_apply(const FineOccupancyView* fine) const {
+    if constexpr (requires(DvrBatchArgs& b) { volume.slot_batch(b); }) {
+      return !(fine != nullptr && fine->enabled()) && p.leaps && p.filter == Filter::Linear &&
+             p.mode == RenderMode::Dvr && p.simd && !p.lighting.enabled && p.tf.table != nullptr &&
+             sample_batch_available();
+    } else {
+      (void)fine;
+      return false;
+    }
+  }
+
+  // march() of a ray's ascending known spans spans[0 .. n) (n <= kSpanChunk, each within the ray's
+  // samples), where slot_spans_apply: on one copy of the caster for them all, and where consecutive
+  // spans lie in one resident brick, one scan of its slot's mask for them together
+  // (BatchMarch::march_slot_spans) instead of a run set-up per span. The same samples in the same
+  // order, so the same image and counts. False once the ray has terminated.
+  bool march_spans(const Ray& ray, float t_entry, const SampleSpan* spans, int n, RayAccum& acc) const {
+    if (acc.done) return false;
+    RayAccum a = acc;  // locals, as march()
+    const Ray r = ray;
+    const RayCaster self = *this;
+    const bool alive = self.march_spans_local(r, t_entry, spans, n, a);
+    self.volume.count_left_out(0);
+    acc = a;
+    return alive;
+  }
+
+ private:
+  bool march_spans_local(const Ray& ray, float t_entry, const SampleSpan* spans, int n, RayAccum& acc) const {
+    const vec3 inv_dir = FineOccupancyView::inverse_direction(ray);
+    const bool lod_varies = !p.lod.constant();
+    SampleContext ctx;
+    if (!lod_varies) ctx.level = p.lod.level_at(0.0f);
+    float clear_v = NAN;  // as march_local
+    std::uint64_t leapt = 0;
+    BatchMarch<Sampler> run(*this);
+    DvrBatchArgs& b = run.b;
+    b.dt = p.dt;
+    b.tf_table = &p.tf.table[0].x;
+    b.tf_size = p.tf.size;
+    b.tf_vmin = p.tf.vmin;
+    b.tf_inv_step = p.tf.inv_step;
+    b.origin = ray.origin;
+    b.dir = ray.dir;
+    b.t_entry = t_entry;
+    run.ok = true;
+    int fits = -1;
+    SampleSpan sub[kSpanChunk];
+    bool alive = true;
+    int s = 0, k = n > 0 ? spans[0].k0 : 0;
+    while (s < n) {
+      const int k1 = spans[s].k1;
+      if (k >= k1) {
+        if (++s < n) k = spans[s].k0;
+        continue;
+      }
+      const int m = brick_spans(ray, inv_dir, t_entry, spans, n, s, k, ctx, lod_varies, b, fits, sub);
+      if (m == 0) {
+        // The rest of this span as march() takes it (its own slot runs where they apply).
+        if (!march_leaping(ray, t_entry, k, k1, acc, ctx, clear_v, lod_varies)) {
+          alive = false;
+          break;
+        }
+        if (++s < n) k = spans[s].k0;
+        continue;
+      }
+      int stop = k;
+      std::uint32_t taken = 0;
+      alive = run.march_slot_spans(ray, t_entry, sub, m, acc, ctx, clear_v, stop, taken);
+      // Every position visited (up to the terminating sample) was taken or left out, as the one-by-one
+      // walk counts them; the shortfall as slot_run counts it.
+      std::uint64_t visited = 0;
+      for (int j = 0; j < m && sub[j].k0 < stop; ++j) {
+        const int e = sub[j].k1 < stop ? sub[j].k1 : stop;
+        visited += std::uint64_t(e - sub[j].k0);
+        volume.count_run(ray, t_entry, p.dt, sub[j].k0, e, 0, ctx);
+      }
+      leapt += visited - taken;
+      if (!alive) break;
+      s += m - 1;  // on from the end of the last one: within its span, or at the next
+      k = sub[m - 1].k1;
+    }
+    volume.count_left_out(leapt);
+    return alive;
+  }
+
+  // The spans from sample k of spans[s] on that lie in the brick the cursor finds at k, clipped to its
+  // exit, into `sub` (their number), where slot_run's conditions hold there: resident with its cells
+  // and mask, not strided, one level throughout, a slot the batch reads (`b` then holds it); 0 where
+  // they do not. Samples k .. e - 1 all lie in the brick when k and e - 1 do (a ray's voxel
+  // coordinates are monotonic in t), gaps between spans included.
+  int brick_spans(const Ray& ray, const vec3& inv_dir, float t_entry, const SampleSpan* spans, int n, int s, int k,
+                  SampleContext& ctx, bool lod_varies, DvrBatchArgs& b, int& fits, SampleSpan* sub) const {
+    const float t = t_entry + float(k) * p.dt;
+    if (lod_varies) ctx.level = p.lod.level_at(t);
+    if (!volume.resident_cells(ray.at(t), ctx)) return 0;
+    if (p.strided() && p.lod.stride_log2(ctx.level) != 0) return 0;
+    int e = sample_index(volume.cursor_exit(ray, inv_dir), t_entry, p.inv_dt);
+    e = e < spans[n - 1].k1 ? e : spans[n - 1].k1;
+    while (e > k + 1 && !volume.in_cursor(ray.at(t_entry + float(e - 1) * p.dt))) --e;
+    int m = 0;
+    for (int j = s; j < n; ++j) {
+      const int a = j == s ? k : spans[j].k0;
+      if (a >= e) break;
+      sub[m++] = SampleSpan{a, spans[j].k1 < e ? spans[j].k1 : e};
+    }
+    if (m == 0 || (m == 1 && sub[0].k1 - sub[0].k0 < BatchMarch<Sampler>::kMinRun)) return 0;
+    if (lod_varies && p.lod.level_at(t_entry + float(sub[m - 1].k1 - 1) * p.dt) != ctx.level) return 0;
+    if (!volume.slot_batch(b)) return 0;
+    if (fits < 0) fits = sample_batch_fits(b) ? 1 : 0;
+    return fits != 0 ? m : 0;
+  }
+#endif
+
   // Whether a sample of value v composites nothing (DVR, labels: zero opacity), as take_sample
   // decides it; DVR remembers it as its last clear value.
   SL_HOST_DEVICE SL_INLINE bool clear_value(float v, float& clear_v) const {
