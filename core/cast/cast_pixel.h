@@ -60,55 +60,15 @@ SL_HOST_DEVICE SL_INLINE void span_samples(float t0, float t1, float t_entry, fl
 }
 
 #if !defined(__CUDA_ARCH__)
-// cast_pixel's segment walk (Alg. 6) for a batch that scans the voxel mask: the sampled segments' spans
-// are handed to the batch a chunk at a time and share its queue; an UNKNOWN segment is marched on its
-// own after the queue is taken (its miss counted as cast_pixel counts it).
-template <class Sampler>
-void cast_scanned_segments(const RayCaster<Sampler>& caster, const SkipInputs& skip, BatchMarch<Sampler>& batch,
-                           const RayEvent* ev, std::uint32_t n, std::uint32_t segments, const Ray& ray, float t_entry,
-                           float t_exit, int k_end, int kc0, int kc1, RayAccum& acc, std::uint32_t& misses,
-                           const BatchPlans<Sampler>* plans) {
-  constexpr int kChunk = 32;
-  SampleSpan spans[kChunk];
-  int ns = 0;
-  typename BatchMarch<Sampler>::SpanScan q;
-  // Queues [a, b); false once the ray has terminated.
-  const auto push = [&](int a, int b) {
-    spans[ns++] = SampleSpan{a, b};
-    if (ns < kChunk) return true;
-    ns = 0;
-    return batch.scan_spans(ray, t_entry, spans, kChunk, acc, q);
-  };
-  for (std::uint32_t i = 0; i < segments; ++i) {
-    const RaySegment seg = list_segment(ev, n, i, t_exit);
-    if (!needs_sampling(seg.cls) || !(seg.t1 > seg.t0)) continue;
-    int k0, k1;
-    span_samples(seg.t0, seg.t1, t_entry, caster.p.inv_dt, kc0, kc1, k0, k1);
-    k1 = k1 < k_end ? k1 : k_end;  // march_span's bound
-    if (seg.cls == OccupancyClass::Unknown) {
-      const bool alive = batch.scan_spans(ray, t_entry, spans, ns, acc, q) && batch.scan_finish(ray, t_entry, acc, q);
-      ns = 0;
-      if (!alive) return;
-      if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, true, &skip.fine, plans);
-      ++misses;
-      if (acc.done) return;
-      continue;
-    }
-    if (k0 >= k1) continue;
-    if (!push(k0, k1)) return;
-  }
-  if (batch.scan_spans(ray, t_entry, spans, ns, acc, q)) batch.scan_finish(ray, t_entry, acc, q);
-}
-#endif
-
-#if !defined(__CUDA_ARCH__)
-// cast_pixel's segment walk where the out-of-core batch takes a ray's known spans together
-// (RayCaster::march_spans): handed over a chunk at a time; an UNKNOWN segment is marched on its own
-// after the chunk (its miss counted as cast_pixel counts it).
-template <class Sampler>
-void cast_slot_segments(const RayCaster<Sampler>& caster, const SkipInputs& skip, const RayEvent* ev, std::uint32_t n,
-                        std::uint32_t segments, const Ray& ray, float t_entry, float t_exit, int k_end, int kc0,
-                        int kc1, RayAccum& acc, std::uint32_t& misses, const BatchPlans<Sampler>* plans) {
+// cast_pixel's segment walk (Alg. 6) for a CPU batch that takes a ray's spans together: the sampled
+// segments' spans go to `flush(spans, n, finish)` a chunk at a time (false once the ray has
+// terminated; `finish`: nothing may stay pending after it); an UNKNOWN segment is marched on its own
+// after the chunk before it is finished (its miss counted as cast_pixel counts it).
+template <class Sampler, class Flush>
+void walk_segment_chunks(const RayCaster<Sampler>& caster, const SkipInputs& skip, const RayEvent* ev,
+                         std::uint32_t n, std::uint32_t segments, const Ray& ray, float t_entry, float t_exit, int k_end,
+                         int kc0, int kc1, RayAccum& acc, std::uint32_t& misses, const BatchPlans<Sampler>* plans,
+                         Flush&& flush) {
   constexpr int kChunk = RayCaster<Sampler>::kSpanChunk;
   SampleSpan spans[kChunk];
   int ns = 0;
@@ -119,8 +79,9 @@ void cast_slot_segments(const RayCaster<Sampler>& caster, const SkipInputs& skip
     span_samples(seg.t0, seg.t1, t_entry, caster.p.inv_dt, kc0, kc1, k0, k1);
     k1 = k1 < k_end ? k1 : k_end;  // march_span's bound
     if (seg.cls == OccupancyClass::Unknown) {
-      if (ns > 0 && !caster.march_spans(ray, t_entry, spans, ns, acc)) return;
+      const bool alive = flush(spans, ns, true);
       ns = 0;
+      if (!alive) return;
       if (k0 < k1) caster.march_span(ray, t_entry, k0, k1, k_end, acc, true, &skip.fine, plans);
       ++misses;
       if (acc.done) return;
@@ -130,10 +91,10 @@ void cast_slot_segments(const RayCaster<Sampler>& caster, const SkipInputs& skip
     spans[ns++] = SampleSpan{k0, k1};
     if (ns == kChunk) {
       ns = 0;
-      if (!caster.march_spans(ray, t_entry, spans, kChunk, acc)) return;
+      if (!flush(spans, kChunk, false)) return;
     }
   }
-  if (ns > 0) caster.march_spans(ray, t_entry, spans, ns, acc);
+  flush(spans, ns, true);
 }
 #endif
 
@@ -210,8 +171,10 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
         // Out of core on the CPU, a ray's known spans go to the batch together (march_spans): the
         // spans that share a resident brick share one scan of its slot.
         if (!exact && caster.slot_spans_apply(&skip.fine)) {
-          cast_slot_segments(caster, skip, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc, misses,
-                             plans);
+          walk_segment_chunks(caster, skip, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc, misses, plans,
+                              [&](const SampleSpan* spans, int ns, bool) {
+                                return ns == 0 || caster.march_spans(ray, t_entry, spans, ns, acc);
+                              });
           return segments;
         }
       }
@@ -221,8 +184,12 @@ SL_HOST_DEVICE std::uint32_t cast_pixel(const RayCaster<Sampler>& caster, const 
         const BatchPlan* pl = plans != nullptr && !exact && !acc.done ? plans->find(&skip.fine) : nullptr;
         if (pl != nullptr && pl->ok && pl->scan) {
           BatchMarch<Sampler> batch(caster, *pl, ray, t_entry);
-          cast_scanned_segments(caster, skip, batch, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc,
-                                misses, plans);
+          typename BatchMarch<Sampler>::SpanScan q;
+          walk_segment_chunks(caster, skip, ev, n, segments, ray, t_entry, t_exit, k_end, kc0, kc1, acc, misses, plans,
+                              [&](const SampleSpan* spans, int ns, bool finish) {
+                                const bool alive = batch.scan_spans(ray, t_entry, spans, ns, acc, q);
+                                return finish ? alive && batch.scan_finish(ray, t_entry, acc, q) : alive;
+                              });
           return segments;
         }
       }

@@ -455,47 +455,57 @@ struct RayCaster {
 
 #if !defined(__CUDA_ARCH__)
   // march_leaping's samples from k (in a fine cell of the cursor's brick, served by a resident slot with
-  // its voxel mask: its own or a resident ancestor's) to the brick's exit, the sample grid not strided at this level
-  // and the level the same throughout: those whose mask bit is set found and taken eight at a time from
-  // the slot (BatchMarch::march_slot), the rest left out, the shortfall counted as sample() would.
+  // its voxel mask: its own or a resident ancestor's) to the brick's exit, where brick_spans finds the
+  // slot run applies: those whose mask bit is set found and taken eight at a time from the slot, the
+  // rest left out, the shortfall counted as sample() would (take_slot_spans).
   // 1: taken, the ray goes on from `stop`; -1: it terminated (`stop`: one past its last sample);
   // 0: the batch does not apply here (nothing done). `fits`: whether the slots fit the batch (-1: ask).
   int slot_run(const Ray& ray, const vec3& inv_dir, float t_entry, int k, int k1, RayAccum& acc, SampleContext& ctx,
                float& clear_v, bool lod_varies, int& stop, std::uint64_t& leapt, int& fits) const {
-    if (p.strided() && p.lod.stride_log2(ctx.level) != 0) return 0;
-    // The samples in the brick: a ray's voxel coordinates are monotonic in t, so with k and end - 1 in
-    // it, every sample between is; rounding may leave one past the exit plane in it (the next run's).
-    int end = sample_index(volume.cursor_exit(ray, inv_dir), t_entry, p.inv_dt);
-    end = end < k1 ? end : k1;
-    while (end > k + 1 && !volume.in_cursor(ray.at(t_entry + float(end - 1) * p.dt))) --end;
-    if (end - k < BatchMarch<Sampler>::kMinRun) return 0;
-    if (lod_varies && p.lod.level_at(t_entry + float(end - 1) * p.dt) != ctx.level) return 0;
+    BatchMarch<Sampler> run = slot_batch_for(ray, t_entry);
+    const SampleSpan span{k, k1};
+    SampleSpan sub[1];
+    if (brick_spans(ray, inv_dir, t_entry, &span, 1, 0, k, ctx, lod_varies, run.b, fits, sub) == 0) return 0;
+    return take_slot_spans(run, ray, t_entry, sub, 1, acc, ctx, clear_v, stop, leapt) ? 1 : -1;
+  }
+
+  // The batch of a ray's slot runs: the frame's table and the ray; brick_spans sets the slot.
+  BatchMarch<Sampler> slot_batch_for(const Ray& ray, float t_entry) const {
     BatchMarch<Sampler> run(*this);
     DvrBatchArgs& b = run.b;
-    if (!volume.slot_batch(b)) return 0;
     b.dt = p.dt;
     b.tf_table = &p.tf.table[0].x;
     b.tf_size = p.tf.size;
     b.tf_vmin = p.tf.vmin;
     b.tf_inv_step = p.tf.inv_step;
-    if (fits < 0) fits = sample_batch_fits(b) ? 1 : 0;
-    if (fits == 0) return 0;
     b.origin = ray.origin;
     b.dir = ray.dir;
     b.t_entry = t_entry;
     run.ok = true;
+    return run;
+  }
+
+  // The spans sub[0 .. m) of one slot (brick_spans) through `run`: every position visited (up to the
+  // terminating sample) was taken or left out, as the one-by-one walk counts them, and the shortfall
+  // is count_run's. False once the ray has terminated (`stop`: one past its last sample).
+  bool take_slot_spans(const BatchMarch<Sampler>& run, const Ray& ray, float t_entry, const SampleSpan* sub, int m,
+                       RayAccum& acc, SampleContext& ctx, float& clear_v, int& stop, std::uint64_t& leapt) const {
     std::uint32_t taken = 0;
-    const bool alive = run.march_slot(ray, t_entry, k, end, acc, ctx, clear_v, stop, taken);
-    // Every sample visited was taken or left out, as the one-by-one walk counts them.
-    leapt += std::uint64_t(stop - k) - taken;
-    volume.count_run(ray, t_entry, p.dt, k, stop, 0, ctx);
-    return alive ? 1 : -1;
+    const bool alive = run.march_slot_spans(ray, t_entry, sub, m, acc, ctx, clear_v, stop, taken);
+    std::uint64_t visited = 0;
+    for (int j = 0; j < m && sub[j].k0 < stop; ++j) {
+      const int e = sub[j].k1 < stop ? sub[j].k1 : stop;
+      visited += std::uint64_t(e - sub[j].k0);
+      volume.count_run(ray, t_entry, p.dt, sub[j].k0, e, 0, ctx);
+    }
+    leapt += visited - taken;
+    return alive;
   }
 #endif
 
 #if !defined(__CUDA_ARCH__)
  public:
-  // The known spans cast_pixel hands to march_spans at once, at most.
+  // The spans a ray hands to the CPU batch at once, at most (core/cast/cast_pixel.h: walk_segment_chunks).
   static constexpr int kSpanChunk = 32;
 
   // Whether march() of a known span would take march_leaping's batched slot runs (out of core on the
@@ -536,17 +546,7 @@ struct RayCaster {
     if (!lod_varies) ctx.level = p.lod.level_at(0.0f);
     float clear_v = NAN;  // as march_local
     std::uint64_t leapt = 0;
-    BatchMarch<Sampler> run(*this);
-    DvrBatchArgs& b = run.b;
-    b.dt = p.dt;
-    b.tf_table = &p.tf.table[0].x;
-    b.tf_size = p.tf.size;
-    b.tf_vmin = p.tf.vmin;
-    b.tf_inv_step = p.tf.inv_step;
-    b.origin = ray.origin;
-    b.dir = ray.dir;
-    b.t_entry = t_entry;
-    run.ok = true;
+    BatchMarch<Sampler> run = slot_batch_for(ray, t_entry);
     int fits = -1;
     SampleSpan sub[kSpanChunk];
     bool alive = true;
@@ -557,7 +557,7 @@ struct RayCaster {
         if (++s < n) k = spans[s].k0;
         continue;
       }
-      const int m = brick_spans(ray, inv_dir, t_entry, spans, n, s, k, ctx, lod_varies, b, fits, sub);
+      const int m = brick_spans(ray, inv_dir, t_entry, spans, n, s, k, ctx, lod_varies, run.b, fits, sub);
       if (m == 0) {
         // The rest of this span as march() takes it (its own slot runs where they apply).
         if (!march_leaping(ray, t_entry, k, k1, acc, ctx, clear_v, lod_varies)) {
@@ -568,17 +568,7 @@ struct RayCaster {
         continue;
       }
       int stop = k;
-      std::uint32_t taken = 0;
-      alive = run.march_slot_spans(ray, t_entry, sub, m, acc, ctx, clear_v, stop, taken);
-      // Every position visited (up to the terminating sample) was taken or left out, as the one-by-one
-      // walk counts them; the shortfall as slot_run counts it.
-      std::uint64_t visited = 0;
-      for (int j = 0; j < m && sub[j].k0 < stop; ++j) {
-        const int e = sub[j].k1 < stop ? sub[j].k1 : stop;
-        visited += std::uint64_t(e - sub[j].k0);
-        volume.count_run(ray, t_entry, p.dt, sub[j].k0, e, 0, ctx);
-      }
-      leapt += visited - taken;
+      alive = take_slot_spans(run, ray, t_entry, sub, m, acc, ctx, clear_v, stop, leapt);
       if (!alive) break;
       s += m - 1;  // on from the end of the last one: within its span, or at the next
       k = sub[m - 1].k1;
