@@ -288,11 +288,14 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
                 low5 = _mm256_set1_epi32(31), nib = _mm256_set1_epi32(15);
   const __m256i shifts = _mm256_setr_epi32(0, 4, 8, 12, 16, 20, 24, 28);
   const int* bits = reinterpret_cast<const int*>(a.mask_bits);
-  int s = s_io, k = k_io;
+  // The level-adaptive grid's positions: multiples of 2^stride, eight of them per step.
+  const int stride = a.stride_log2, round = (1 << stride) - 1;
+  const __m256i lane_k = _mm256_slli_epi32(lane, stride);
+  int s = s_io, k = (k_io + round) & ~round;
   while (s < n && queued < want) {
     const int k1 = spans[s].k1;
     while (k < k1 && queued < want) {
-      const __m256i kv = _mm256_add_epi32(_mm256_set1_epi32(k), lane);
+      const __m256i kv = _mm256_add_epi32(_mm256_set1_epi32(k), lane_k);
       const __m256 t = _mm256_add_ps(t_entry, _mm256_mul_ps(_mm256_cvtepi32_ps(kv), dt));
       const __m256 ux = _mm256_min_ps(
           _mm256_max_ps(_mm256_sub_ps(_mm256_mul_ps(_mm256_add_ps(ox, _mm256_mul_ps(t, dx)), ix), half), zero), hx);
@@ -318,7 +321,7 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
                              _mm256_srli_epi32(x0, 5));
         sh = _mm256_and_si256(x0, low5);
       }
-      const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k1 - k), lane);
+      const __m256i live = _mm256_cmpgt_epi32(_mm256_set1_epi32(k1 - k), lane_k);
       const __m256i words = _mm256_mask_i32gather_epi32(_mm256_setzero_si256(), bits, w, live, 4);
       const __m256i bit = _mm256_and_si256(_mm256_srlv_epi32(words, sh), one);
       const int m = _mm256_movemask_ps(_mm256_castsi256_ps(_mm256_and_si256(live, _mm256_cmpeq_epi32(bit, one))));
@@ -327,10 +330,10 @@ __attribute__((target("avx2,popcnt"))) int dvr_mask_scan_avx2(const DvrBatchArgs
         _mm256_storeu_si256(reinterpret_cast<__m256i*>(ks + queued), _mm256_permutevar8x32_epi32(kv, idx));
         queued += __builtin_popcount(unsigned(m));
       }
-      k += 8;
+      k += 8 << stride;
     }
     if (k < k1) break;  // `want` queued
-    if (++s < n) k = spans[s].k0;
+    if (++s < n) k = (spans[s].k0 + round) & ~round;
   }
   s_io = s;
   k_io = k;

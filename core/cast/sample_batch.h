@@ -36,6 +36,9 @@ struct DvrBatchArgs {
   // the mask's rows padded to words.
   bool slot = false;
   ivec3 first{0};
+  // Out of core, the level-adaptive grid (LodParams::grid_level): dvr_mask_scan_spans visits only the
+  // positions that are multiples of 2^stride_log2. 0: every position.
+  int stride_log2 = 0;
   vec3 origin{0.0f}, dir{0.0f};
   float t_entry = 0.0f, dt = 1.0f;
   const float* tf_table = nullptr;  // vec4 entries, w = opacity
@@ -77,7 +80,8 @@ struct SampleSpan {
 };
 
 // Appends to ks[queued ..] the samples of the ascending spans spans[s .. n) of one ray, from position k
-// of spans[s], whose voxel-mask bit is set, ascending, testing eight positions at a time; the set
+// of spans[s] (the multiples of 2^a.stride_log2 among them), whose voxel-mask bit is set, ascending,
+// testing eight positions at a time; the set
 // positions of one span and then the next are queued alike, so the spans of a ray share its
 // batches (a short span does not end in a batch of its own). Stops once at least `want` are queued
 // (s, k: where to go on) or the spans are done (s == n). ks holds want + 8 ints (queued < want).

@@ -8,6 +8,7 @@
 #include <rapidcheck/gtest.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <vector>
 
@@ -114,6 +115,36 @@ RC_GTEST_PROP(LevelAdaptiveGrid, SpansPartitionTheThinnedGrid, ()) {
   RC_ASSERT(std::memcmp(&whole.color, &pieces.color, sizeof(vec3)) == 0);
   RC_ASSERT(std::memcmp(&whole.alpha, &pieces.alpha, sizeof(float)) == 0);
   RC_ASSERT(whole.mip_max == pieces.mip_max);
+}
+
+// LodParams::level_at reads a level off the footprint ratio's exponent bits instead of calling
+// log2f for every sample: the same level as floorf(log2f(ratio)) for every float from 2 to 2^17 (16
+// levels, every one of its 2^23 mantissas per level, the windows next to the powers of two where
+// the bits defer to log2f included), and an infinite ratio is the coarsest level.
+TEST(LevelOfDetail, ExponentBitsGiveLog2fsLevelForEveryFloat) {
+  std::uint64_t differing = 0;
+  float first = 0.0f;
+  for (std::uint32_t bits = 0x40000000u; bits < 0x48000000u; ++bits) {  // [2, 2^17)
+    float x;
+    std::memcpy(&x, &bits, sizeof x);
+    if (LodParams::floor_log2(x) != int(floorf(log2f(x)))) {
+      if (differing++ == 0) first = x;
+    }
+  }
+  EXPECT_EQ(differing, 0u) << "first at " << first;
+  LodParams lod;
+  lod.levels = 9;
+  lod.pixel_size = INFINITY;
+  EXPECT_EQ(lod.level_at(1.0f), 8);
+  lod.pixel_size = NAN;
+  EXPECT_EQ(lod.level_at(1.0f), 0);
+  lod.pixel_size = 0.0f;
+  lod.pixel_angle = 0.5f;
+  lod.inv_voxel = 1.0f;
+  EXPECT_EQ(lod.level_at(3.999f), 0);
+  EXPECT_EQ(lod.level_at(4.0f), 1);
+  EXPECT_EQ(lod.level_at(16.0f), 3);
+  EXPECT_EQ(lod.level_at(1e30f), 8);
 }
 
 }  // namespace
