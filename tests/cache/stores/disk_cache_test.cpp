@@ -220,8 +220,8 @@ TEST(DiskCacheOwnership, EvictionDeletesOnlyTheCachesOwnFiles) {
   const auto foreign = contents(d);
   const auto outside_before = contents(outside);
   {
-    // A bound of one entry: every put evicts the one before.
-    DiskCache c(d.string(), 28 + 3 + 1000);
+    // A bound of one entry (header, key of 3 or 4 bytes, payload): every put evicts the one before.
+    DiskCache c(d.string(), 28 + 4 + 1000);
     EXPECT_EQ(c.files(), 0u);
     for (int i = 0; i < 20; ++i) c.put("k/" + std::to_string(i), payload(1000, i));
     EXPECT_EQ(c.files(), 1u);
@@ -279,11 +279,11 @@ TEST(DiskCacheOwnership, EntriesThatIsNotADirectoryIsRefused) {
 
 // Root writes into any folder: the check runs as an unprivileged user in a child process.
 TEST(DiskCacheOwnership, AnUnwritableFolderIsOneClearError) {
-  const fs::path d = test::scratch_dir() / "ro";
+  const fs::path scratch = test::scratch_dir(), d = scratch / "ro";
   fs::create_directories(d);
   fs::permissions(d, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
                          fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
-  fs::permissions(test::scratch_dir(), fs::perms::others_exec | fs::perms::others_read, fs::perm_options::add);
+  fs::permissions(scratch, fs::perms::others_exec | fs::perms::others_read, fs::perm_options::add);
   const pid_t pid = ::fork();
   ASSERT_GE(pid, 0);
   if (pid == 0) {
