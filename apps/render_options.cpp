@@ -42,6 +42,13 @@ std::function<void(const std::string&)> refuse_zero(const char* option) {
   };
 }
 
+// An empty name stands for "not given" too (the default volume, ramp, camera; no cache).
+std::function<void(const std::string&)> refuse_empty(const char* option) {
+  return [option](const std::string& v) {
+    if (v.empty()) throw InputError(option, "the name is empty");
+  };
+}
+
 }  // namespace
 
 bool RenderOptions::out_of_core() const { return cache_mb > 0 || distributed || is_procedural_spec(scene.volume); }
@@ -56,17 +63,22 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "directory of slices), OME-Zarr v2/v3 store or Neuroglancer precomputed volume (a directory or "
                "http(s):// URL, optionally behind zarr://, zarr2://, zarr3:// or precomputed://; out of core with "
                "--cache-mb), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default "
-               "builtin:neurites (256^3)");
+               "builtin:neurites (256^3)")
+      ->each(refuse_empty("--volume"));
   c.add_option("--labels", s.labels,
                "Label volume of an integer type and the same dims, in any format --volume reads; default: a "
-               "store's own labels/ group (a .zarr volume), the built-in set's labels");
-  c.add_option("--tf", s.tf, "Transfer function JSON; default: a ramp over 0..255 for u8, over the data range otherwise");
+               "store's own labels/ group (a .zarr volume), the built-in set's labels")
+      ->each(refuse_empty("--labels"));
+  c.add_option("--tf", s.tf, "Transfer function JSON; default: a ramp over 0..255 for u8, over the data range otherwise")
+      ->each(refuse_empty("--tf"));
   c.add_option("--disk-cache", s.disk_cache,
-               "Directory caching the objects of remote (http/https) stores between runs (LRU, crash-safe)");
+               "Directory caching the objects of remote (http/https) stores between runs (LRU, crash-safe)")
+      ->each(refuse_empty("--disk-cache"));
   c.add_option("--disk-cache-mb", s.disk_cache_mb, "Bound of --disk-cache in MB (default 1024)")
       ->each(refuse_zero("--disk-cache-mb"));
   if (cmd != Command::Bench) {
-    c.add_option("--camera", s.camera, "Camera JSON; default: the whole volume seen from front-right-top");
+    c.add_option("--camera", s.camera, "Camera JSON; default: the whole volume seen from front-right-top")
+        ->each(refuse_empty("--camera"));
   }
   c.add_option("--enable", s.enable,
                "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED; in dvr, mip and iso only samples of "

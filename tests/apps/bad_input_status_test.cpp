@@ -2,7 +2,7 @@
 // without a finite value, or whose values span more than a float holds, names the volume (no
 // transfer function was given to blame); a --cache-mb this machine cannot hold names the option and
 // the memory available; an ingest --level outside the codec's range names the range; a 0 that would
-// silently mean "not given" is refused. Option values are refused, never clamped.
+// silently mean "not given" (a 0, an empty name) is refused. Option values are refused, never clamped.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -68,6 +68,12 @@ std::vector<Case> status_cases() {
        "bench --volume builtin:neurites:16x16x16 --size 8x8 --orbit 1 --cache-mb 99999999", 1,
        "--cache-mb: 99999999 MB is more than this machine can hold"},
       {"status", "--cache-mb 0", kNothing, kRenderSmall + "--cache-mb 0", 1, "--cache-mb: must be positive, got 0"},
+      // An empty name would read as "not given" (the default volume, ramp, camera; no cache).
+      {"status", "--volume empty", kNothing, kRender + "--volume ''", 1, "--volume: the name is empty"},
+      {"status", "--labels empty", kNothing, kRenderSmall + "--labels ''", 1, "--labels: the name is empty"},
+      {"status", "--tf empty", kNothing, kRenderSmall + "--tf ''", 1, "--tf: the name is empty"},
+      {"status", "--camera empty", kNothing, kRenderSmall + "--camera ''", 1, "--camera: the name is empty"},
+      {"status", "--disk-cache empty", kNothing, kRenderSmall + "--disk-cache ''", 1, "--disk-cache: the name is empty"},
       {"status", "--cache-mb 0, bench", kNothing, "bench --volume builtin:neurites:16x16x16 --size 8x8 --cache-mb 0", 1,
        "--cache-mb: must be positive, got 0"},
       // ingest: a level outside the codec's range is refused (never clamped or replaced by the default).
