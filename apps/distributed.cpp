@@ -114,6 +114,11 @@ void Distributed::agree(std::exception_ptr error) {
 
 void Distributed::leave_together() { MPI_Barrier(MPI_COMM_WORLD); }
 
+int Distributed::status_of_root(int status) {
+  MPI_Bcast(&status, 1, MPI_INT, 0, MPI_COMM_WORLD);
+  return status;
+}
+
 bool Distributed::all(bool value) {
   agree();
   int v = value ? 1 : 0;
@@ -308,7 +313,7 @@ int run_distributed(const std::function<int(Distributed&)>& body) {
   try {
     const int rc = body(d);
     d.agree();  // the last step (rank 0's outputs) may fail too
-    return rc;
+    return d.status_of_root(rc);
   } catch (...) {
     // Failed in an agreement: rank 0 reports it, the others leave quietly.
     std::exception_ptr error = std::current_exception();

@@ -81,6 +81,9 @@ class Distributed {
   void leave_together();
   // Collective: `value` holds on every rank.
   bool all(bool value);
+  // Collective: rank 0's exit status, on every rank. Rank 0 decides it from the composited frame
+  // (incomplete: 4; --strict with failed bricks: 1), so every rank exits with the same status.
+  int status_of_root(int status);
 
   // This rank's region of the work-balanced split of the scene under `cull`: each rank estimates a
   // share of the coarse bricks, the grids are summed (MPI_Allreduce) and every rank splits the same
@@ -118,7 +121,8 @@ struct PeerFailed : std::exception {
 // agree() of the others with its error (every collective step of Distributed starts with one), so all ranks leave
 // without a hang; rank 0 prints the first failing rank's error once (report_error), then every rank meets at a
 // barrier and returns non-zero (rank 0 its error's exit code, the others 1), so mpirun's abort on a non-zero exit
-// cannot cut rank 0 off before its line is out.
+// cannot cut rank 0 off before its line is out. When body returns, every rank returns rank 0's status. A brick
+// that fails to load is no failure here: each rank renders it as missing with the single process's warning.
 int run_distributed(const std::function<int(Distributed&)>& body);
 
 }  // namespace sl::app

@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <stdexcept>
 
 #include <unistd.h>
@@ -23,7 +24,7 @@ struct IngestCmdOptions {
   std::string compressor = "blosc-zstd";
   std::string format = "zarr2";
   int shard = 0;
-  int level = -1;
+  std::optional<int> level;  // the codec's default when not given
   bool force = false;
 };
 
@@ -115,9 +116,10 @@ int run_ingest(const IngestCmdOptions& o) {
   try {
     io.compressor = zarr::compressor_from_name(o.compressor, o.level);
   } catch (const std::runtime_error& e) {
-    // The codec names the level when it is the level that is out of range.
-    const bool level = std::string(e.what()).rfind("level", 0) == 0;
-    throw InputError(level ? "--level" : "--compressor", e.what());
+    // The codec's message starts with "level" when it is the level that is refused.
+    const std::string what = e.what();
+    if (what.rfind("level: ", 0) == 0) throw InputError("--level", what.substr(7));
+    throw InputError(what.rfind("level", 0) == 0 ? "--level" : "--compressor", what);
   }
   if (o.format != "zarr2" && o.format != "zarr3") throw InputError("--format", "must be zarr2 or zarr3, got '" + o.format + "'");
   io.zarr_format = o.format == "zarr3" ? 3 : 2;
@@ -164,7 +166,8 @@ Runner add_ingest_command(CLI::App& app) {
   c->add_option("--shard", o->shard, "Zarr v3: shards of N x N x N chunks (sharding_indexed; 0: no shards)")
       ->capture_default_str();
   c->add_option("--level", o->level,
-                "Compression level (default: zlib/gzip 6, zstd 3, blosc 5; ranges zlib/gzip/blosc 0-9, zstd 0-22)");
+                "Compression level (default: zlib/gzip 6, zstd 3, blosc 5; ranges zlib/gzip/blosc 0-9, zstd 0-22; a level "
+                "outside the range is refused)");
   c->add_option("--labels", o->labels, "Label volume to store as the NGFF label image labels/labels (integer type)");
   c->add_flag("--force", o->force, "Replace OUT if it exists");
   return [o] { return run_ingest(*o); };

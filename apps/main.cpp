@@ -66,6 +66,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     print_error("", e.what());
     return 2;
+  } catch (const sl::InputError&) {  // an option's value refused while parsing (render_options.cpp)
+    return sl::app::report_error(std::current_exception());
   }
   try {
     for (auto& [sub, run] : runners) {

@@ -5,13 +5,16 @@
 #include <CLI/CLI.hpp>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
+#include <functional>
 #include <limits>
 #include <regex>
 
 #include "cache/testing/fault_injection.h"
 #include "cache/synthetic/procedural_neurites.h"
 #include "core/util/error.h"
+#include "core/util/process_memory.h"
 
 namespace sl::app {
 
@@ -29,6 +32,23 @@ void parse_size(const std::string& s, int& w, int& h) {
   }
 }
 
+// 0 stands for "not given" in the options' structs (the default applies): a 0 on the command line
+// would silently become that default (or, for --cache-mb, in core), so it is refused.
+std::function<void(const std::string&)> refuse_zero(const char* option) {
+  return [option](const std::string& v) {
+    char* end = nullptr;
+    const double d = std::strtod(v.c_str(), &end);
+    if (end != v.c_str() && *end == '\0' && d == 0.0) throw InputError(option, "must be positive, got " + v);
+  };
+}
+
+// An empty name stands for "not given" too (the default volume, ramp, camera; no cache).
+std::function<void(const std::string&)> refuse_empty(const char* option) {
+  return [option](const std::string& v) {
+    if (v.empty()) throw InputError(option, "the name is empty");
+  };
+}
+
 }  // namespace
 
 bool RenderOptions::out_of_core() const { return cache_mb > 0 || distributed || is_procedural_spec(scene.volume); }
@@ -43,16 +63,22 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
                "directory of slices), OME-Zarr v2/v3 store or Neuroglancer precomputed volume (a directory or "
                "http(s):// URL, optionally behind zarr://, zarr2://, zarr3:// or precomputed://; out of core with "
                "--cache-mb), builtin:KIND[:XxYxZ[:SEED]] or procedural:neurites:XxYxZ[:SEED]; default "
-               "builtin:neurites (256^3)");
+               "builtin:neurites (256^3)")
+      ->each(refuse_empty("--volume"));
   c.add_option("--labels", s.labels,
                "Label volume of an integer type and the same dims, in any format --volume reads; default: a "
-               "store's own labels/ group (a .zarr volume), the built-in set's labels");
-  c.add_option("--tf", s.tf, "Transfer function JSON; default: a ramp over 0..255 for u8, over the data range otherwise");
+               "store's own labels/ group (a .zarr volume), the built-in set's labels")
+      ->each(refuse_empty("--labels"));
+  c.add_option("--tf", s.tf, "Transfer function JSON; default: a ramp over 0..255 for u8, over the data range otherwise")
+      ->each(refuse_empty("--tf"));
   c.add_option("--disk-cache", s.disk_cache,
-               "Directory caching the objects of remote (http/https) stores between runs (LRU, crash-safe)");
-  c.add_option("--disk-cache-mb", s.disk_cache_mb, "Bound of --disk-cache in MB (default 1024)");
+               "Directory caching the objects of remote (http/https) stores between runs (LRU, crash-safe)")
+      ->each(refuse_empty("--disk-cache"));
+  c.add_option("--disk-cache-mb", s.disk_cache_mb, "Bound of --disk-cache in MB (default 1024)")
+      ->each(refuse_zero("--disk-cache-mb"));
   if (cmd != Command::Bench) {
-    c.add_option("--camera", s.camera, "Camera JSON; default: the whole volume seen from front-right-top");
+    c.add_option("--camera", s.camera, "Camera JSON; default: the whole volume seen from front-right-top")
+        ->each(refuse_empty("--camera"));
   }
   c.add_option("--enable", s.enable,
                "Enabled labels: all, none, 1,5,10-20 or fraction:P:SEED; in dvr, mip and iso only samples of "
@@ -133,7 +159,9 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
 
   c.add_option("--cache-mb", o.cache_mb,
                std::string("Out of core with this brick-cache budget") +
-                   (view ? ": bricks stream in and the view refines" : "") + " (default for procedural: 1024)");
+                   (view ? ": bricks stream in and the view refines" : "") +
+                   " (default for procedural: 1024; at most 90 % of the memory available)")
+      ->each(refuse_zero("--cache-mb"));
   c.add_option("--brick", o.brick, "Brick payload edge: 8, 16, 32 or 64 (out of core)")->capture_default_str();
   c.add_option("--lod", o.lod, "Pin every sample to this level (out of core; default: from the pixel footprint). When the view's bricks at that level do not fit --cache-mb, the frames go on in depth passes to the exact image");
   c.add_option("--lod-bias", o.lod_bias, "Level-of-detail bias, > 0; > 1 coarser (out of core)")->capture_default_str();
@@ -175,6 +203,21 @@ void add_render_options(CLI::App& c, RenderOptions& o, Command cmd) {
     c.add_flag("--distributed", o.distributed,
                "Sort-last under mpirun: each rank renders its k-d region of the volume out of core, IceT "
                "composites, rank 0 writes (dvr, iso, labels; --ert is per rank, not exact)");
+  }
+}
+
+void check_cache_budget(std::size_t cache_mb) {
+  if (cache_mb == 0) return;
+  const double available = available_memory_mb();
+  // The frame's buffers, the page tables and the loader's bricks come on top of the cache.
+  const double limit = available * kCacheShareOfAvailableMemory;
+  if (available > 0 && double(cache_mb) > limit) {
+    char buf[200];
+    std::snprintf(buf, sizeof buf,
+                  "%zu MB is more than this machine can hold: %.0f MB of memory available, of which the cache may "
+                  "take %.0f MB",
+                  cache_mb, available, std::floor(limit));
+    throw InputError("--cache-mb", buf);
   }
 }
 
@@ -226,6 +269,7 @@ CheckedOptions check_render_options(const RenderOptions& o) {
   if (!(o.step >= 1e-3f) || o.step > 64.0f) throw InputError("--step", "step must be in [0.001, 64]");
   // A negative --cache-mb wraps to a huge unsigned budget (and then "out of memory").
   if (o.cache_mb > std::size_t(PTRDIFF_MAX)) throw InputError("--cache-mb", "must be positive");
+  check_cache_budget(o.cache_mb);
   // The same wrap would read as a huge budget, i.e. no bound at all.
   if (o.upload_budget > std::size_t(PTRDIFF_MAX)) {
     throw InputError("--upload-budget", "must be 0 (every loaded brick) or a number of bricks");

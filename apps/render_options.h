@@ -73,6 +73,11 @@ struct CheckedOptions {
 };
 CheckedOptions check_render_options(const RenderOptions& o);
 
+// The share of the memory available (process_memory.h) a --cache-mb budget may take; more is refused
+// naming the option and the memory available, before anything is loaded.
+inline constexpr double kCacheShareOfAvailableMemory = 0.9;
+void check_cache_budget(std::size_t cache_mb);
+
 // What needs the loaded scene, the same in every command: labels mode needs a label volume (and out
 // of core the set to show, --enable); the iso default depends on the data.
 void complete_settings(const RenderOptions& o, const SourceScene& s, RenderSettings& rs);

@@ -1,6 +1,8 @@
 #include "apps/scene_loader.h"
 
+#include <cmath>
 #include <cstdio>
+#include <limits>
 #include <optional>
 #include <regex>
 
@@ -23,6 +25,22 @@
 namespace sl::app {
 
 namespace {
+
+// Without --tf the default ramp spans the volume's finite values. A float volume with no finite value,
+// or whose values span more than a float holds, has nothing such a ramp could map: that is the
+// volume's problem, named as such.
+TransferFunction default_tf_for_range(vec2 r, const std::string& volume) {
+  if (!(r.x <= r.y)) {
+    throw InputError(volume, "no finite values (all NaN or infinite): no default transfer function; give --tf");
+  }
+  if (!std::isfinite(r.y - r.x)) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "value range [%g, %g] overflows a float (its width is beyond %g); give --tf",
+                  double(r.x), double(r.y), double(std::numeric_limits<float>::max()));
+    throw InputError(volume, buf);
+  }
+  return default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+}
 
 std::string dims_text(const VolumeDesc& d) {
   return std::to_string(d.dims.x) + "x" + std::to_string(d.dims.y) + "x" + std::to_string(d.dims.z) + " " +
@@ -115,8 +133,7 @@ LoadedScene load_scene(const SceneOptions& o) {
   } else if (s.volume.type() == VoxelType::U8) {
     s.tf = default_transfer_function(0.0f, 255.0f);
   } else {
-    const vec2 r = value_range(s.volume);
-    s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+    s.tf = default_tf_for_range(value_range(s.volume), s.name);
   }
   s.camera = o.camera.empty() ? default_camera(s.volume.desc().extent()) : load_camera(o.camera);
   if (!o.enable.empty()) {
@@ -158,8 +175,7 @@ template <class Source> void fill_store_scene(SourceScene& s, std::shared_ptr<So
   } else if (s.desc.type == VoxelType::U8) {
     s.tf = default_transfer_function(0.0f, 255.0f);
   } else {
-    const vec2 r = src->value_range_estimate();
-    s.tf = default_transfer_function(r.x, r.y > r.x ? r.y : r.x + 1.0f);
+    s.tf = default_tf_for_range(src->value_range_estimate(), o.volume);
   }
   s.camera = o.camera.empty() ? default_camera(s.desc.extent()) : load_camera(o.camera);
   if (!o.enable.empty()) {

@@ -26,7 +26,7 @@ namespace sl {
 
 struct IngestOptions {
   int chunk = 64;                     // chunk edge; even, 8-512
-  zarr::Compressor compressor = zarr::compressor_from_name("blosc-zstd", -1);
+  zarr::Compressor compressor = zarr::compressor_from_name("blosc-zstd");
   std::string labels;                 // optional label volume (same dims, integer type)
   bool force = false;                 // replace an existing OUT
   // Refused up front (naming IN and the size) when memory_bound() exceeds this; 0: no limit.

@@ -4,6 +4,7 @@
 #include <vector>
 
 #include "core/occupancy/block_metadata.h"
+#include "core/util/error.h"
 #include "core/util/parallel.h"
 #include "core/scene/voxel_dispatch.h"
 
@@ -36,7 +37,12 @@ WorkGrid estimate_work(const VolumeSource& source, const BrickLayout& layout, in
       const ivec3 c(int(i % std::size_t(g.cells.x)), int((i / std::size_t(g.cells.x)) % std::size_t(g.cells.y)),
                     int(i / (std::size_t(g.cells.x) * std::size_t(g.cells.y))));
       const BrickId id = BrickId::pack(level, c);
-      source.read_brick(layout, id, iv, lv);
+      try {
+        source.read_brick(layout, id, iv, lv);
+      } catch (const InputError&) {
+        g.work[i] = double(per) * double(per) * double(per);
+        continue;
+      }
       const VolumeView ivw{iv.data(), S, vec3(1.0f), d.type};
       const VolumeView lvw{labels ? lv.data() : nullptr, S, vec3(1.0f), source.label_type()};
       const ivec3 first_stored = layout.brick_origin(id) - kBrickApron;

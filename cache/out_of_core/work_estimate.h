@@ -19,7 +19,9 @@ int work_level(const BrickLayout& layout, int max_cells);
 
 // The work grid of `level` (cells = its bricks, cell edge B·2^level level-0 voxels). Only the
 // bricks with index ≡ part (mod parts) are read, the others stay 0, so `parts` processes can each
-// read a share and sum the grids. Throws what the source throws for a brick it cannot read.
+// read a share and sum the grids. A brick the source cannot read (an InputError: a corrupt chunk, a
+// failed request) counts as fully occupied, the conservative guess: a data fault is the loader's to
+// report when the brick is rendered (as missing), not a reason to stop balancing.
 WorkGrid estimate_work(const VolumeSource& source, const BrickLayout& layout, int level, int block,
                        const CullParams& cull, int part = 0, int parts = 1);
 

@@ -11,7 +11,6 @@
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
-#include <fstream>
 #include <vector>
 
 #include "core/util/error.h"
@@ -23,7 +22,7 @@ namespace fs = std::filesystem;
 
 constexpr char kMagic[8] = {'S', 'L', 'D', 'C', 'A', 'C', 'H', '1'};
 constexpr std::size_t kHeader = 8 + 8 + 8 + 4;  // magic, key length, payload length, CRC-32
-constexpr const char* kTmp = ".tmp.";            // in temporary names only
+constexpr const char* kTmp = ".tmp.";            // in temporary names only (ENTRY.tmp.PID.SERIAL)
 
 std::string hash_name(const std::string& key) {
   std::uint64_t h = 1469598103934665603ull;  // FNV-1a 64
@@ -33,8 +32,54 @@ std::string hash_name(const std::string& key) {
   return buf;
 }
 
+// The marker's whole content: a folder with this file is a cache this program made.
+constexpr char kMarkerText[] = "sparseleap disk cache 1\n";
+
 bool is_entry_name(const std::string& n) {
   return n.size() == 16 && std::all_of(n.begin(), n.end(), [](char c) { return std::isxdigit((unsigned char)c); });
+}
+bool all_digits(const std::string& s) {
+  return !s.empty() && std::all_of(s.begin(), s.end(), [](char c) { return std::isdigit((unsigned char)c); });
+}
+// ENTRY.tmp.PID.SERIAL, as put() names its temporaries.
+bool is_tmp_name(const std::string& n) {
+  if (n.size() < 16 + 5 || !is_entry_name(n.substr(0, 16)) || n.compare(16, 5, kTmp) != 0) return false;
+  const std::string rest = n.substr(21);
+  const auto dot = rest.find('.');
+  return dot != std::string::npos && all_digits(rest.substr(0, dot)) && all_digits(rest.substr(dot + 1));
+}
+
+// Opens a file for reading without following a symlink or blocking on a FIFO; -1 unless regular.
+int open_regular(const std::string& p) {
+  const int fd = ::open(p.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+  if (fd < 0) return -1;
+  struct stat s {};
+  if (::fstat(fd, &s) != 0 || !S_ISREG(s.st_mode)) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+bool read_exact(int fd, void* dst, std::size_t n) {
+  auto* p = static_cast<char*>(dst);
+  while (n > 0) {
+    const ssize_t r = ::read(fd, p, n);
+    if (r < 0 && errno == EINTR) continue;
+    if (r <= 0) return false;
+    p += r;
+    n -= std::size_t(r);
+  }
+  return true;
+}
+
+bool has_magic(const std::string& p) {
+  const int fd = open_regular(p);
+  if (fd < 0) return false;
+  char m[8];
+  const bool ok = read_exact(fd, m, 8) && std::memcmp(m, kMagic, 8) == 0;
+  ::close(fd);
+  return ok;
 }
 
 std::uint32_t checksum(const std::string& key, const std::byte* p, std::size_t n) {
@@ -59,36 +104,102 @@ std::uint64_t get_u64(const unsigned char* p) {
 
 }  // namespace
 
-DiskCache::DiskCache(std::string dir, std::uint64_t max_bytes) : dir_(std::move(dir)), max_bytes_(max_bytes) {
+DiskCache::DiskCache(std::string dir, std::uint64_t max_bytes)
+    : dir_(std::move(dir)), entries_(dir_ + "/" + kEntriesName), max_bytes_(max_bytes) {
+  adopt();
+  scan();
+}
+
+void DiskCache::adopt() {
+  const auto fail = [&](const std::string& why) { throw InputError("--disk-cache", dir_ + ": " + why); };
   std::error_code ec;
-  fs::create_directories(dir_, ec);
-  if (!fs::is_directory(dir_, ec)) {
-    throw InputError("--disk-cache", dir_ + ": cannot create the directory" + (ec ? " (" + ec.message() + ")" : ""));
+  const fs::file_status st = fs::status(dir_, ec);  // DIR itself may be a symlink the user made
+  if (fs::exists(st) && !fs::is_directory(st)) fail("not a directory");
+  if (!fs::exists(st)) {
+    fs::create_directories(dir_, ec);
+    if (!fs::is_directory(dir_, ec)) fail("cannot create the directory" + (ec ? " (" + ec.message() + ")" : ""));
   }
-  if (::access(dir_.c_str(), W_OK | X_OK) != 0) {
-    throw InputError("--disk-cache", dir_ + ": the directory is not writable (" + std::strerror(errno) + ")");
+  if (::access(dir_.c_str(), W_OK | X_OK) != 0) fail(std::string("the directory is not writable (") + std::strerror(errno) + ")");
+  const std::string marker = dir_ + "/" + kMarkerName;
+  const auto is_marker = [&] {
+    // O_NOFOLLOW | O_NONBLOCK: a symlink or a FIFO in the marker's place is not our marker.
+    const int fd = ::open(marker.c_str(), O_RDONLY | O_NOFOLLOW | O_NONBLOCK | O_CLOEXEC);
+    if (fd < 0) return false;
+    struct stat s {};
+    char buf[sizeof kMarkerText] = {};
+    const bool ok = ::fstat(fd, &s) == 0 && S_ISREG(s.st_mode) && std::uint64_t(s.st_size) == sizeof kMarkerText - 1 &&
+                    ::read(fd, buf, sizeof buf) == ssize_t(sizeof kMarkerText - 1) &&
+                    std::memcmp(buf, kMarkerText, sizeof kMarkerText - 1) == 0;
+    ::close(fd);
+    return ok;
+  };
+  if (fs::symlink_status(marker, ec).type() == fs::file_type::not_found) {
+    // Only an empty folder becomes a cache: the cache deletes what it holds.
+    bool empty = true;
+    for (auto it = fs::directory_iterator(dir_, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) empty = false;
+    if (ec) fail("cannot list the directory (" + ec.message() + ")");
+    if (!empty) {
+      // Another process may have just made DIR a cache: then its marker is there now (checked below).
+      if (fs::symlink_status(marker, ec).type() == fs::file_type::not_found) {
+        fail("holds files and is not a sparseleap disk cache (no " + std::string(kMarkerName) +
+             "); give a new or empty folder");
+      }
+    } else if (const int fd = ::open(marker.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+               fd >= 0) {
+      const bool ok = ::write(fd, kMarkerText, sizeof kMarkerText - 1) == ssize_t(sizeof kMarkerText - 1);
+      ::close(fd);
+      if (!ok) fail("cannot write " + std::string(kMarkerName));
+    } else if (errno != EEXIST) {  // EEXIST: another process made the cache meanwhile (checked below)
+      fail("cannot write " + std::string(kMarkerName) + " (" + std::strerror(errno) + ")");
+    }
   }
+  if (!is_marker()) fail(std::string(kMarkerName) + " is not a sparseleap disk cache's marker; give a new or empty folder");
+  const fs::file_status es = fs::symlink_status(entries_, ec);
+  if (es.type() == fs::file_type::not_found) {
+    fs::create_directory(entries_, ec);
+    ec.clear();  // another process may have made it: checked next
+  }
+  if (fs::symlink_status(entries_, ec).type() != fs::file_type::directory) {
+    fail(std::string(kEntriesName) + " is not a directory of the cache's own (a file or a symlink)");
+  }
+  if (::access(entries_.c_str(), W_OK | X_OK) != 0) {
+    fail(std::string(kEntriesName) + " is not writable (" + std::strerror(errno) + ")");
+  }
+}
+
+void DiskCache::scan() {
   struct Found {
     std::string name;
     std::uint64_t size;
     fs::file_time_type time;
   };
   std::vector<Found> found;
-  for (auto it = fs::directory_iterator(dir_, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
+  std::error_code ec;
+  for (auto it = fs::directory_iterator(entries_, ec); !ec && it != fs::directory_iterator(); it.increment(ec)) {
     const std::string name = it->path().filename().string();
-    if (name.find(kTmp) != std::string::npos && is_entry_name(name.substr(0, 16))) {
+    // symlink_status: a symlink is never followed, indexed or deleted.
+    if (!it->is_regular_file(ec) || it->is_symlink(ec)) {
+      ec.clear();
+      continue;
+    }
+    if (is_tmp_name(name)) {
       fs::remove(it->path(), ec);  // a write a crash interrupted
       ec.clear();
       continue;
     }
-    if (!is_entry_name(name) || !it->is_regular_file(ec)) continue;  // not ours: never touched
+    if (!is_entry_name(name) || !has_magic(it->path().string())) continue;  // not ours: never touched
     found.push_back({name, std::uint64_t(it->file_size(ec)), it->last_write_time(ec)});
     ec.clear();
   }
-  if (ec) throw InputError("--disk-cache", dir_ + ": cannot list the directory (" + ec.message() + ")");
+  if (ec) throw InputError("--disk-cache", entries_ + ": cannot list the directory (" + ec.message() + ")");
   std::sort(found.begin(), found.end(), [](const Found& a, const Found& b) { return a.time < b.time; });
   std::lock_guard lock(mutex_);
   for (const Found& f : found) insert_locked(f.name, f.size);  // oldest first: the newest ends in front
+}
+
+void DiskCache::remove_entry_file(const std::string& name) const {
+  struct stat s {};
+  if (::lstat(path(name).c_str(), &s) == 0 && S_ISREG(s.st_mode)) ::unlink(path(name).c_str());
 }
 
 void DiskCache::insert_locked(const std::string& name, std::uint64_t size) {
@@ -99,8 +210,7 @@ void DiskCache::insert_locked(const std::string& name, std::uint64_t size) {
   while (bytes_ > max_bytes_ && lru_.size() > 1) {
     const std::string victim = lru_.back();
     erase_locked(victim);
-    std::error_code ec;
-    fs::remove(path(victim), ec);
+    remove_entry_file(victim);
     counters_.evicted.fetch_add(1, std::memory_order_relaxed);
   }
 }
@@ -134,34 +244,41 @@ std::optional<std::vector<std::byte>> DiskCache::get(const std::string& key) {
     }
     lru_.splice(lru_.begin(), lru_, it->second.lru);
   }
-  const auto bad = [&](bool corrupt) -> std::optional<std::vector<std::byte>> {
+  // `ours`: the file is still the cache's (its magic): a torn or corrupt entry is deleted; anything
+  // else put in its place is only forgotten.
+  const auto bad = [&](bool corrupt, bool ours) -> std::optional<std::vector<std::byte>> {
     (corrupt ? counters_.corrupt : counters_.misses).fetch_add(1, std::memory_order_relaxed);
     if (corrupt) {
       std::lock_guard lock(mutex_);
       erase_locked(name);
-      std::error_code ec;
-      fs::remove(path(name), ec);
+      if (ours) remove_entry_file(name);
     }
     return std::nullopt;
   };
-  std::ifstream f(path(name), std::ios::binary);
+  const int fd = open_regular(path(name));
+  if (fd < 0) return bad(true, false);
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
   unsigned char h[kHeader];
-  if (!f || !f.read(reinterpret_cast<char*>(h), kHeader) || std::memcmp(h, kMagic, 8) != 0) return bad(true);
+  if (!read_exact(fd, h, 8) || std::memcmp(h, kMagic, 8) != 0) return bad(true, false);
+  if (!read_exact(fd, h + 8, kHeader - 8)) return bad(true, true);
   const std::uint64_t key_len = get_u64(h + 8), len = get_u64(h + 16);
   std::uint32_t crc = 0;
   for (int i = 3; i >= 0; --i) crc = (crc << 8) | h[24 + i];
-  std::error_code ec;
-  const std::uint64_t size = fs::file_size(path(name), ec);
-  if (ec || size < kHeader || key_len > size - kHeader || len != size - kHeader - key_len) return bad(true);
+  struct stat st {};
+  if (::fstat(fd, &st) != 0) return bad(true, true);
+  const std::uint64_t size = std::uint64_t(st.st_size);
+  if (size < kHeader || key_len > size - kHeader || len != size - kHeader - key_len) return bad(true, true);
   std::string stored_key(key_len, '\0');
   std::vector<std::byte> payload(len);
-  if (!f.read(stored_key.data(), std::streamsize(key_len)) ||
-      !f.read(reinterpret_cast<char*>(payload.data()), std::streamsize(len)) ||
+  if (!read_exact(fd, stored_key.data(), key_len) || !read_exact(fd, payload.data(), len) ||
       checksum(stored_key, payload.data(), payload.size()) != crc) {
-    return bad(true);
+    return bad(true, true);
   }
-  if (stored_key != key) return bad(false);  // a hash collision: the other key's entry stays
-  ::utimensat(AT_FDCWD, path(name).c_str(), nullptr, 0);  // the LRU order a restart rebuilds
+  if (stored_key != key) return bad(false, true);  // a hash collision: the other key's entry stays
+  ::futimens(fd, nullptr);  // the LRU order a restart rebuilds
   counters_.hits.fetch_add(1, std::memory_order_relaxed);
   return payload;
 }
@@ -177,18 +294,29 @@ void DiskCache::put(const std::string& key, const std::vector<std::byte>& payloa
   put_u64(h, payload.size());
   const std::uint32_t crc = checksum(key, payload.data(), payload.size());
   for (int i = 0; i < 4; ++i) h.push_back(char((crc >> (8 * i)) & 0xff));
-  bool ok = false;
-  {
-    std::ofstream f(tmp, std::ios::binary | std::ios::trunc);
-    f.write(h.data(), std::streamsize(h.size()));
-    f.write(key.data(), std::streamsize(key.size()));
-    f.write(reinterpret_cast<const char*>(payload.data()), std::streamsize(payload.size()));
-    f.flush();
-    ok = bool(f);
+  // O_EXCL | O_NOFOLLOW: never writes through a file or symlink that was there already.
+  const int fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_NOFOLLOW | O_CLOEXEC, 0644);
+  if (fd < 0) {
+    counters_.write_failures.fetch_add(1, std::memory_order_relaxed);
+    return;
   }
+  const auto write_all = [&](const void* src, std::size_t n) {
+    const auto* p = static_cast<const char*>(src);
+    while (n > 0) {
+      const ssize_t w = ::write(fd, p, n);
+      if (w < 0 && errno == EINTR) continue;
+      if (w <= 0) return false;
+      p += w;
+      n -= std::size_t(w);
+    }
+    return true;
+  };
+  const bool ok = write_all(h.data(), h.size()) && write_all(key.data(), key.size()) &&
+                  write_all(payload.data(), payload.size());
+  const bool closed = ::close(fd) == 0;
   std::error_code ec;
-  if (!ok || (fs::rename(tmp, path(name), ec), ec)) {
-    fs::remove(tmp, ec);
+  if (!ok || !closed || (fs::rename(tmp, path(name), ec), ec)) {
+    ::unlink(tmp.c_str());
     counters_.write_failures.fetch_add(1, std::memory_order_relaxed);
     return;
   }

@@ -1,7 +1,9 @@
 // `--distributed` under mpirun (DESIGN.md "Beyond one machine"): with 1, 2, 3 and 4 ranks the composited image equals
 // the single-process out-of-core image (EXR RGBA within 1e-5, PNG within 1/255) for perspective and
 // orthographic cameras, a camera inside the volume, ranks with empty regions, and a small cache per
-// rank; bad input on one rank is one error line from rank 0 and every rank exits.
+// rank; bad input on one rank is one error line from rank 0 and every rank exits; a corrupt chunk is a
+// data fault handled as one process handles it (rendered as missing with the same warning, exit 0;
+// --strict exit 1 on every rank), never an exit or a hang of the job.
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -9,9 +11,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
+#include <vector>
 
+#include "cache/formats/nrrd/nrrd.h"
+#include "core/scene/generate.h"
 #include "core/util/image.h"
 #include "tests/test_util.h"
 
@@ -202,6 +208,116 @@ TEST_F(Distributed, BadInputOnOneRankIsOneErrorAndEveryRankExits) {
   EXPECT_NE(r.output.find("sparseleap: error: rank 1: "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("missing.nrrd"), std::string::npos) << r.output;
   EXPECT_FALSE(std::filesystem::exists(out + ".png"));
+}
+
+// A 32³ store of 8³ chunks with `corrupt(store)` applied: rendered once by one process and once by two
+// ranks, out of core with 8³ bricks. Both must end with the same exit status, write an image, and print
+// the same warning lines (a warning names the chunk and what is wrong with it). The work estimate
+// that balances the ranks reads level 0 here, so it meets the corrupt chunk too.
+class DistributedDataFault : public Distributed {
+ protected:
+  struct Run {
+    test::RunResult result;
+    std::vector<std::string> warnings, errors;
+  };
+  static std::vector<std::string> lines_with(const std::string& text, const std::string& prefix) {
+    std::vector<std::string> v;
+    for (std::size_t p = text.find(prefix); p != std::string::npos; p = text.find(prefix, p + 1)) {
+      v.push_back(text.substr(p, text.find('\n', p) - p));
+    }
+    std::sort(v.begin(), v.end());
+    v.erase(std::unique(v.begin(), v.end()), v.end());
+    return v;
+  }
+  std::filesystem::path make_store(const std::function<void(const std::filesystem::path&)>& corrupt) {
+    const GeneratedVolume g = generate_volume("blobs", ivec3(32), 1);
+    write_nrrd((dir / "v.nrrd").string(), g.intensity);
+    const std::filesystem::path store = dir / "s.zarr";
+    const test::RunResult r = test::run_sparseleap("ingest " + (dir / "v.nrrd").string() + " " + store.string() +
+                                                   " --chunk 8 --compressor zstd");
+    EXPECT_EQ(r.exit_code, 0) << r.output;
+    corrupt(store);
+    return store;
+  }
+  Run render(const std::string& args, int ranks) {
+    const std::string exe = test::sparseleap_exe().string();
+    const std::string out = (dir / ("out" + std::to_string(ranks))).string();
+    std::filesystem::remove(out + ".png");
+    const std::string launch = ranks == 0 ? exe + " render " : mpirun(ranks) + " " + exe + " render --distributed ";
+    Run run;
+    run.result = test::run_shell(launch + args + " --out " + out + " 2>&1");
+    run.warnings = lines_with(run.result.output, "sparseleap: warning:");
+    run.errors = lines_with(run.result.output, "sparseleap: error:");
+    EXPECT_NE(run.result.exit_code, 124) << "timed out: a rank hung\n" << run.result.output;
+    if (run.result.exit_code == 0) EXPECT_TRUE(std::filesystem::exists(out + ".png")) << run.result.output;
+    return run;
+  }
+  // The single process and two ranks agree; returns the single process's run.
+  Run expect_like_single_process(const std::string& args) {
+    const Run single = render(args, 0);
+    const Run two = render(args, 2);
+    EXPECT_EQ(two.result.exit_code, single.result.exit_code) << single.result.output << "\n---\n" << two.result.output;
+    EXPECT_EQ(two.warnings, single.warnings) << two.result.output;
+    EXPECT_EQ(two.errors.size(), single.errors.size()) << two.result.output;
+    return single;
+  }
+};
+
+std::filesystem::path first_file(const std::filesystem::path& folder) {
+  std::vector<std::filesystem::path> files;
+  for (const auto& e : std::filesystem::recursive_directory_iterator(folder)) {
+    if (e.is_regular_file() && e.path().filename().string()[0] != '.') files.push_back(e.path());
+  }
+  std::sort(files.begin(), files.end());
+  return files.empty() ? folder : files.front();
+}
+
+constexpr const char* kStore = " --cache-mb 16 --brick 8 --block 8 --size 48x48 --frames 40";
+
+TEST_F(DistributedDataFault, ACorruptChunkIsRenderedAsMissingWithTheSameWarning) {
+  const auto store = make_store([](const std::filesystem::path& s) { test::write_text(first_file(s / "0"), std::string(300, 'x')); });
+  const Run single = expect_like_single_process("--volume " + store.string() + kStore + " --lod 0 --allow-partial");
+  EXPECT_EQ(single.result.exit_code, 0) << single.result.output;
+  ASSERT_EQ(single.warnings.size(), 1u) << single.result.output;
+  EXPECT_NE(single.warnings[0].find("brick failed to load, rendered as missing"), std::string::npos);
+}
+
+TEST_F(DistributedDataFault, ATruncatedChunkAtEveryLevelIsRenderedAsMissing) {
+  const auto store = make_store([](const std::filesystem::path& s) {
+    for (const char* level : {"0", "1", "2"}) {
+      if (!std::filesystem::exists(s / level)) continue;
+      const auto c = first_file(s / level);
+      std::filesystem::resize_file(c, std::filesystem::file_size(c) / 2);
+    }
+  });
+  const Run single = expect_like_single_process("--volume " + store.string() + kStore + " --allow-partial");
+  EXPECT_EQ(single.result.exit_code, 0) << single.result.output;
+  EXPECT_FALSE(single.warnings.empty()) << single.result.output;
+}
+
+// Without --allow-partial the image is incomplete (the failed bricks stay missing): status 4 on every
+// rank, the same line as one process.
+TEST_F(DistributedDataFault, ACorruptChunkLeavesTheImageIncompleteAsInOneProcess) {
+  const auto store = make_store([](const std::filesystem::path& s) { test::write_text(first_file(s / "0"), std::string(300, 'x')); });
+  const Run single = expect_like_single_process("--volume " + store.string() + kStore);
+  EXPECT_EQ(single.result.exit_code, 4) << single.result.output;
+  EXPECT_EQ(single.warnings.size(), 1u) << single.result.output;
+}
+
+TEST_F(DistributedDataFault, StrictExitsOneOnEveryRank) {
+  const auto store = make_store([](const std::filesystem::path& s) { test::write_text(first_file(s / "0"), std::string(300, 'x')); });
+  const Run single = expect_like_single_process("--volume " + store.string() + kStore + " --lod 0 --strict");
+  EXPECT_EQ(single.result.exit_code, 1) << single.result.output;
+  ASSERT_EQ(single.errors.size(), 1u) << single.result.output;
+  EXPECT_NE(single.errors[0].find("bricks failed to load (--strict)"), std::string::npos);
+}
+
+// A missing chunk is the fill value, not a fault: the same image status with and without ranks.
+TEST_F(DistributedDataFault, AMissingChunkIsTheFillValue) {
+  const auto store = make_store([](const std::filesystem::path& s) { std::filesystem::remove(first_file(s / "0")); });
+  const Run single = expect_like_single_process("--volume " + store.string() + kStore + " --lod 0 --strict");
+  EXPECT_EQ(single.result.exit_code, 0) << single.result.output;
+  EXPECT_TRUE(single.warnings.empty()) << single.result.output;
 }
 
 }  // namespace

@@ -131,23 +131,28 @@ json to_json(const Compressor& c) {
   return nullptr;
 }
 
-Compressor compressor_from_name(const std::string& name, int level) {
+Compressor compressor_from_name(const std::string& name, std::optional<int> level) {
   Compressor c;
+  // Each codec's documented range; a level outside it is refused, never clamped or replaced.
+  const auto at = [&](int fallback, int hi) {
+    if (level && (*level < 0 || *level > hi)) {
+      fail("level must be 0-" + std::to_string(hi) + " for " + name + ", got " + std::to_string(*level));
+    }
+    c.level = level ? *level : fallback;
+  };
   if (name == "none") {
+    if (level) fail("level: the compressor none takes no level");
     return c;
   } else if (name == "zlib" || name == "gzip") {
     c.id = name == "zlib" ? Compressor::Id::Zlib : Compressor::Id::Gzip;
-    c.level = level < 0 ? 6 : level;
-    if (c.level > 9) fail("level must be 0-9 for " + name);
+    at(6, 9);
   } else if (name == "zstd") {
     c.id = Compressor::Id::Zstd;
-    c.level = level < 0 ? 3 : level;
-    if (c.level > 22) fail("level must be 0-22 for zstd");
+    at(3, 22);
   } else if (name == "blosc-lz4" || name == "blosc-zstd" || name == "blosc-zlib") {
     c.id = Compressor::Id::Blosc;
     c.cname = name.substr(6);
-    c.level = level < 0 ? 5 : level;
-    if (c.level > 9) fail("level must be 0-9 for " + name);
+    at(5, 9);
   } else {
     fail("unknown compressor '" + name + "' (none, zlib, gzip, zstd, blosc-lz4, blosc-zstd, blosc-zlib)");
   }

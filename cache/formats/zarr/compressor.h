@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <span>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -27,8 +28,9 @@ struct Compressor {
 Compressor parse_compressor(const nlohmann::json& j);
 nlohmann::json to_json(const Compressor& c);
 // "none", "zlib", "gzip", "zstd", "blosc-lz4", "blosc-zstd", "blosc-zlib" (the --compressor names),
-// with `level` (< 0: the codec's default). Throws std::runtime_error for another name.
-Compressor compressor_from_name(const std::string& name, int level);
+// at `level` (none: the codec's default). Throws std::runtime_error for another name, for a level
+// outside the codec's range and for a level given to "none" (the message starts with "level").
+Compressor compressor_from_name(const std::string& name, std::optional<int> level = std::nullopt);
 std::string describe(const Compressor& c);  // "blosc (zstd, level 5, byte shuffle)"
 
 // Decodes one chunk, which must decode to exactly `out.size()` bytes. Throws std::runtime_error

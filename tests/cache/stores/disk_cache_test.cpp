@@ -1,13 +1,19 @@
 // DiskCache and CachedByteStore: entries survive a restart (the index is rebuilt from the
 // directory, LRU order from the files' times); the byte bound evicts the least recently used; short,
 // corrupt and foreign files are detected and refetched; a temporary file a crash left behind is
-// removed and never read; files not the cache's own are never touched; over HTTP a second read of an
-// object makes no request.
+// removed and never read; files not the cache's own are never touched (a folder of other files is
+// refused, foreign files and symlinks put into a cache survive eviction byte-identical); over HTTP a
+// second read of an object makes no request.
 #include <gtest/gtest.h>
 
 #include <cstring>
 #include <filesystem>
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <fstream>
+#include <functional>
+#include <map>
 
 #include "cache/stores/disk_cache.h"
 #include "cache/stores/http_store.h"
@@ -28,7 +34,7 @@ std::vector<std::byte> payload(std::size_t n, int seed) {
 
 std::vector<fs::path> entry_files(const fs::path& dir) {
   std::vector<fs::path> v;
-  for (const auto& e : fs::directory_iterator(dir)) {
+  for (const auto& e : fs::directory_iterator(dir / DiskCache::kEntriesName)) {
     if (e.path().filename().string().size() == 16) v.push_back(e.path());
   }
   return v;
@@ -92,10 +98,10 @@ TEST(DiskCache, CorruptShortAndLeftoverFilesAreDetected) {
   fs::resize_file(files[1], 100);
   // A temporary file a crash left, and a file that is not the cache's.
   test::write_text(files[0].string() + ".tmp.1234.0", "half");
-  test::write_text(dir / "notes.txt", "mine");
+  test::write_text(dir / DiskCache::kEntriesName / "notes.txt", "mine");
   DiskCache c(dir.string(), 1 << 20);
   EXPECT_FALSE(fs::exists(files[0].string() + ".tmp.1234.0"));
-  EXPECT_TRUE(fs::exists(dir / "notes.txt"));
+  EXPECT_EQ(test::read_text(dir / DiskCache::kEntriesName / "notes.txt"), "mine");
   EXPECT_FALSE(c.get("a").has_value());
   EXPECT_FALSE(c.get("b").has_value());
   EXPECT_EQ(c.counters().corrupt, 2u);
@@ -113,8 +119,189 @@ TEST(DiskCache, UnusableDirectoryIsOneClearError) {
     FAIL() << "no error";
   } catch (const InputError& e) {
     EXPECT_EQ(e.file(), "--disk-cache");
-    EXPECT_EQ(e.reason().rfind(file.string() + ": cannot create the directory", 0), 0u) << e.what();
+    EXPECT_EQ(e.reason(), file.string() + ": not a directory") << e.what();
   }
+}
+
+// ---- Ownership: the cache deletes only what it wrote -------------------------------------------
+
+// Every file below `dir` with its bytes (symlinks as their target), to prove foreign files survive
+// byte-identical.
+std::map<std::string, std::string> contents(const fs::path& dir) {
+  std::map<std::string, std::string> m;
+  for (auto it = fs::recursive_directory_iterator(dir); it != fs::recursive_directory_iterator(); ++it) {
+    const std::string rel = fs::relative(it->path(), dir).string();
+    if (it->is_symlink()) m[rel] = "-> " + fs::read_symlink(it->path()).string();
+    else if (it->is_regular_file()) m[rel] = test::read_text(it->path());
+    else m[rel] = "dir";
+  }
+  return m;
+}
+
+std::string error_of(const fs::path& dir) {
+  try {
+    DiskCache c(dir.string(), 1 << 20);
+  } catch (const InputError& e) {
+    EXPECT_EQ(e.file(), "--disk-cache");
+    return e.reason();
+  }
+  return "no error";
+}
+
+TEST(DiskCacheOwnership, NewAndEmptyFoldersBecomeCachesAndAreReAdopted) {
+  const fs::path dir = test::scratch_dir();
+  fs::create_directories(dir / "empty");
+  for (const fs::path d : {dir / "new" / "deeper", dir / "empty"}) {
+    SCOPED_TRACE(d);
+    {
+      DiskCache c(d.string(), 1 << 20);
+      c.put("k", payload(100, 1));
+    }
+    EXPECT_EQ(test::read_text(d / DiskCache::kMarkerName), "sparseleap disk cache 1\n");
+    EXPECT_TRUE(fs::is_directory(d / DiskCache::kEntriesName));
+    DiskCache again(d.string(), 1 << 20);  // ours: adopted with its entry
+    EXPECT_EQ(again.get("k"), payload(100, 1));
+  }
+}
+
+TEST(DiskCacheOwnership, AFolderOfOtherFilesIsRefusedAndUntouched) {
+  const fs::path dir = test::scratch_dir();
+  const fs::path outside = dir / "outside";
+  fs::create_directories(outside);
+  test::write_text(outside / "precious", "outside the cache");
+  const std::vector<std::pair<std::string, std::function<void(const fs::path&)>>> variants = {
+      {"a file at the top", [](const fs::path& d) { test::write_text(d / "notes.txt", "mine"); }},
+      {"a hidden file", [](const fs::path& d) { test::write_text(d / ".profile", "mine"); }},
+      {"a file named like an entry", [](const fs::path& d) { test::write_text(d / "0123456789abcdef", "mine"); }},
+      {"a subfolder of files", [](const fs::path& d) {
+         fs::create_directories(d / "sub");
+         test::write_text(d / "sub" / "0123456789abcdef", "mine");
+       }},
+      {"a folder named entries", [](const fs::path& d) {
+         fs::create_directories(d / "entries");
+         test::write_text(d / "entries" / "0123456789abcdef", "SLDCACH1 but not ours");
+       }},
+      {"a symlink out", [&](const fs::path& d) { fs::create_directory_symlink(outside, d / "link"); }},
+      {"a marker of other content", [](const fs::path& d) { test::write_text(d / ".sparseleap-disk-cache", "mine\n"); }},
+      {"a marker that is a symlink", [&](const fs::path& d) {
+         fs::create_symlink(outside / "precious", d / ".sparseleap-disk-cache");
+       }},
+      {"a marker that is a directory", [](const fs::path& d) { fs::create_directories(d / ".sparseleap-disk-cache"); }},
+  };
+  for (std::size_t i = 0; i < variants.size(); ++i) {
+    SCOPED_TRACE(variants[i].first);
+    const fs::path d = dir / ("v" + std::to_string(i));
+    fs::create_directories(d);
+    variants[i].second(d);
+    const auto before = contents(d);
+    const std::string why = error_of(d);
+    EXPECT_EQ(why.rfind(d.string() + ": ", 0), 0u) << why;
+    EXPECT_NE(why.find("new or empty folder"), std::string::npos) << why;
+    EXPECT_EQ(contents(d), before);
+  }
+  EXPECT_EQ(test::read_text(outside / "precious"), "outside the cache");
+}
+
+TEST(DiskCacheOwnership, EvictionDeletesOnlyTheCachesOwnFiles) {
+  const fs::path dir = test::scratch_dir();
+  const fs::path d = dir / "dc", outside = dir / "outside";
+  fs::create_directories(outside);
+  test::write_text(outside / "precious", "outside the cache");
+  test::write_text(outside / "0123456789abcdef", "named like an entry, outside");
+  { DiskCache c(d.string(), 1 << 20); }
+  // Foreign things put into the cache's own folder and subfolder after it was made.
+  const fs::path e = d / DiskCache::kEntriesName;
+  test::write_text(d / "notes.txt", "mine");
+  test::write_text(d / "fedcba9876543210", "named like an entry, at the top");
+  test::write_text(e / "00000000000000aa", "named like an entry, no magic");
+  fs::create_symlink(outside / "0123456789abcdef", e / "00000000000000bb");
+  fs::create_directory_symlink(outside, e / "00000000000000cc");
+  test::write_text(e / "readme", "mine too");
+  const auto foreign = contents(d);
+  const auto outside_before = contents(outside);
+  {
+    // A bound of one entry (header, key of 3 or 4 bytes, payload): every put evicts the one before.
+    DiskCache c(d.string(), 28 + 4 + 1000);
+    EXPECT_EQ(c.files(), 0u);
+    for (int i = 0; i < 20; ++i) c.put("k/" + std::to_string(i), payload(1000, i));
+    EXPECT_EQ(c.files(), 1u);
+    EXPECT_GE(c.counters().evicted, 19u);
+  }
+  DiskCache c(d.string(), 1);  // a restart with a bound below every entry
+  auto after = contents(d);
+  for (const auto& [name, bytes] : foreign) {
+    EXPECT_EQ(after.count(name), 1u) << name;
+    if (after.count(name)) EXPECT_EQ(after.at(name), bytes) << name;
+  }
+  EXPECT_EQ(contents(outside), outside_before);
+}
+
+TEST(DiskCacheOwnership, ASymlinkOrFileInPlaceOfAnEntryIsNeverFollowedOrDeleted) {
+  const fs::path dir = test::scratch_dir();
+  const fs::path d = dir / "dc", outside = dir / "outside";
+  fs::create_directories(outside);
+  {
+    DiskCache c(d.string(), 1 << 20);
+    c.put("a", payload(300, 1));
+    c.put("b", payload(300, 2));
+  }
+  const std::vector<fs::path> files = entry_files(d);
+  ASSERT_EQ(files.size(), 2u);
+  // A cache entry copied outside, and a symlink to it where the entry was: never read or deleted.
+  fs::copy_file(files[0], outside / "copy");
+  DiskCache c(d.string(), 1 << 20);
+  fs::remove(files[0]);
+  fs::create_symlink(outside / "copy", files[0]);
+  fs::remove(files[1]);
+  test::write_text(files[1], "not an entry any more");
+  EXPECT_FALSE(c.get("a").has_value());
+  EXPECT_FALSE(c.get("b").has_value());
+  EXPECT_TRUE(fs::is_symlink(files[0]));
+  EXPECT_EQ(test::read_text(files[1]), "not an entry any more");
+  EXPECT_TRUE(fs::exists(outside / "copy"));
+}
+
+TEST(DiskCacheOwnership, EntriesThatIsNotADirectoryIsRefused) {
+  const fs::path dir = test::scratch_dir();
+  fs::create_directories(dir / "outside");
+  const fs::path a = dir / "a", b = dir / "b";
+  { DiskCache c(a.string(), 1 << 20); }
+  { DiskCache c(b.string(), 1 << 20); }
+  fs::remove_all(a / DiskCache::kEntriesName);
+  test::write_text(a / DiskCache::kEntriesName, "mine");
+  fs::remove_all(b / DiskCache::kEntriesName);
+  fs::create_directory_symlink(dir / "outside", b / DiskCache::kEntriesName);
+  for (const fs::path& d : {a, b}) {
+    EXPECT_EQ(error_of(d), d.string() + ": entries is not a directory of the cache's own (a file or a symlink)");
+  }
+  EXPECT_EQ(test::read_text(a / DiskCache::kEntriesName), "mine");
+}
+
+// Root writes into any folder: the check runs as an unprivileged user in a child process.
+TEST(DiskCacheOwnership, AnUnwritableFolderIsOneClearError) {
+  const fs::path scratch = test::scratch_dir(), d = scratch / "ro";
+  fs::create_directories(d);
+  fs::permissions(d, fs::perms::owner_read | fs::perms::owner_exec | fs::perms::group_read |
+                         fs::perms::group_exec | fs::perms::others_read | fs::perms::others_exec);
+  fs::permissions(scratch, fs::perms::others_exec | fs::perms::others_read, fs::perm_options::add);
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    if (::geteuid() == 0 && (::setgid(65534) != 0 || ::setuid(65534) != 0)) ::_exit(10);
+    try {
+      DiskCache c(d.string(), 1 << 20);
+    } catch (const InputError& e) {
+      ::_exit(e.reason().rfind(d.string() + ": the directory is not writable", 0) == 0 ? 0 : 11);
+    } catch (...) {
+      ::_exit(12);
+    }
+    ::_exit(13);
+  }
+  int status = 0;
+  ::waitpid(pid, &status, 0);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_TRUE(fs::is_empty(d));
 }
 
 TEST(CachedByteStore, SecondReadsComeFromDisk) {

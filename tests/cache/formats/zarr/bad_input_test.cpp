@@ -30,7 +30,7 @@ class ZarrBadInput : public ::testing::Test {
     write_nrrd((dir / "v.nrrd").string(), v);
     IngestOptions o;
     o.chunk = 16;
-    o.compressor = zarr::compressor_from_name(compressor, -1);
+    o.compressor = zarr::compressor_from_name(compressor);
     ingest((dir / "v.nrrd").string(), store().string(), o);
   }
   fs::path store() const { return dir / "s.zarr"; }
@@ -97,7 +97,7 @@ TEST_F(ZarrBadInput, ChunkOfTheWrongSizeAfterDecompression) {
     SCOPED_TRACE(c);
     make(c);
     const std::vector<std::byte> small(16 * 16 * 15, std::byte{1});
-    const std::vector<std::byte> enc = zarr::encode(zarr::compressor_from_name(c, -1), small, 1);
+    const std::vector<std::byte> enc = zarr::encode(zarr::compressor_from_name(c), small, 1);
     std::ofstream(chunk(1, "0/0/0"), std::ios::binary).write(reinterpret_cast<const char*>(enc.data()), std::streamsize(enc.size()));
     expect_brick_error(1, {"level 1", "chunk '0/0/0'", "expected 4096 bytes"});
   }

@@ -117,7 +117,7 @@ TEST_P(ZarrPeerOpensOurs, VoxelForVoxel) {
 
   IngestOptions o;
   o.chunk = 8;
-  o.compressor = zarr::compressor_from_name(c.compressor, -1);
+  o.compressor = zarr::compressor_from_name(c.compressor);
   if (c.labels) o.labels = (dir / "lab.nrrd").string();
   const IngestResult r = ingest((dir / "in.nrrd").string(), (dir / "out.zarr").string(), o);
   EXPECT_EQ(r.levels, ingest_levels(dims, 8));

@@ -209,7 +209,7 @@ TEST_P(Zarr3PeerOpensOurs, VoxelForVoxel) {
   if (c.labels) write_nrrd((dir / "lab.nrrd").string(), *labels);
   IngestOptions o;
   o.chunk = 8;
-  o.compressor = zarr::compressor_from_name(c.compressor, -1);
+  o.compressor = zarr::compressor_from_name(c.compressor);
   o.zarr_format = 3;
   o.shard = c.shard;
   if (c.labels) o.labels = (dir / "lab.nrrd").string();
@@ -265,7 +265,7 @@ TEST(Zarr3Ingest, RefusesShardsOnV2AndZlibOnV3) {
   o.shard = 2;
   EXPECT_THROW(ingest((dir / "in.nrrd").string(), (dir / "a.zarr").string(), o), InputError);
   o.zarr_format = 3;
-  o.compressor = zarr::compressor_from_name("zlib", -1);
+  o.compressor = zarr::compressor_from_name("zlib");
   EXPECT_THROW(ingest((dir / "in.nrrd").string(), (dir / "b.zarr").string(), o), InputError);
   EXPECT_FALSE(fs::exists(dir / "a.zarr") || fs::exists(dir / "b.zarr"));
 }
