@@ -14,6 +14,7 @@
 #include <fstream>
 #include <vector>
 
+#include "core/util/checked.h"
 #include "core/util/error.h"
 
 namespace sl {
@@ -204,8 +205,10 @@ std::optional<std::vector<std::byte>> CachedByteStore::through(const std::string
   return v;
 }
 
-std::optional<std::vector<std::byte>> CachedByteStore::read(const std::string& key) const {
-  return through(name_ + "/" + key, [&] { return inner_->read(key); });
+std::optional<std::vector<std::byte>> CachedByteStore::read(const std::string& key, std::uint64_t max_bytes) const {
+  std::optional<std::vector<std::byte>> r = through(name_ + "/" + key, [&] { return inner_->read(key, max_bytes); });
+  if (r) checked_bound(r->size(), max_bytes, "object");
+  return r;
 }
 
 std::optional<std::vector<std::byte>> CachedByteStore::read_range(const std::string& key, std::uint64_t offset,

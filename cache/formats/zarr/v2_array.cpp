@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/util/checked.h"
+
 namespace sl::zarr::v2 {
 namespace {
 
@@ -66,9 +68,9 @@ ArrayMeta parse_array(const json& j) {
     throw std::runtime_error("dtype must be a string (structured dtypes are not supported)");
   }
   m.type = parse_dtype(j["dtype"].get<std::string>(), m.big_endian);
-  double bytes = double(voxel_size(m.type));
-  for (std::int64_t c : m.chunks) bytes *= double(c);
-  if (bytes > double(kMaxChunkBytes)) {
+  const std::uint64_t bytes =
+      checked_product(std::span<const std::int64_t>(m.chunks), "decoded chunk bytes", std::uint64_t(voxel_size(m.type)));
+  if (bytes > kMaxChunkBytes) {
     throw std::runtime_error("chunks of " + std::to_string(std::uint64_t(bytes)) + " bytes exceed the 1 GiB limit");
   }
   const std::string order = j.value("order", std::string("C"));

@@ -59,11 +59,11 @@ TEST(HttpByteStore, ObjectsRangesSuffixesAndMissing) {
   test::HttpTestServer server(root);
   const HttpByteStore s(server.url(), quick());
   const std::uint64_t before = http_counters().requests, connections = http_counters().connections;
-  EXPECT_EQ(s.read("a/obj"), bytes_of(content));
+  EXPECT_EQ(s.read("a/obj", kMaxChunkObjectBytes), bytes_of(content));
   EXPECT_EQ(s.read_range("a/obj", 100, 50), bytes_of(content.substr(100, 50)));
   EXPECT_EQ(s.read_range("a/obj", 0, 1000), bytes_of(content));
   EXPECT_EQ(s.read_suffix("a/obj", 16), bytes_of(content.substr(984)));
-  EXPECT_FALSE(s.read("a/none").has_value());
+  EXPECT_FALSE(s.read("a/none", kMaxChunkObjectBytes).has_value());
   EXPECT_FALSE(s.read_range("none", 0, 4).has_value());
   EXPECT_FALSE(s.read_suffix("none", 4).has_value());
   EXPECT_EQ(http_counters().requests - before, 7u);
@@ -120,7 +120,7 @@ TEST(HttpByteStore, ForbiddenIsAPermanentErrorNamingTheUrl) {
   const HttpByteStore s(server.url(), quick());
   const std::uint64_t retries = http_counters().retries;
   try {
-    s.read("a/obj");
+    s.read("a/obj", kMaxChunkObjectBytes);
     FAIL() << "no error";
   } catch (const TransientError& e) {
     FAIL() << "transient: " << e.what();
@@ -141,7 +141,7 @@ void expect_transient(const std::string& fault, const std::string& expect_text, 
   const auto t0 = std::chrono::steady_clock::now();
   try {
     if (ranged) s.read_range("a/obj", 0, 500);
-    else s.read("a/obj");
+    else s.read("a/obj", kMaxChunkObjectBytes);
     FAIL() << "no error";
   } catch (const TransientError& e) {
     const std::string what = e.what();
