@@ -44,7 +44,8 @@ int open_input_fd(const std::string& path) {
   }
   if (!S_ISREG(st.st_mode)) {
     ::close(fd);
-    throw InputError(path, "is " + file_type_text(st.st_mode) + ", not a regular file");
+    throw InputError(path, S_ISDIR(st.st_mode) ? std::string("is a directory")
+                                               : "is " + file_type_text(st.st_mode) + ", not a regular file");
   }
   const int flags = ::fcntl(fd, F_GETFL);
   if (flags >= 0) ::fcntl(fd, F_SETFL, flags & ~O_NONBLOCK);

@@ -507,6 +507,40 @@ std::vector<Case> http_cases() {
   return c;
 }
 
+// ---- Every other input path the command line takes: a FIFO, device, loop or directory there ---------
+std::vector<Case> input_path_cases() {
+  const std::string small = kRenderSmall;
+  const auto fifo = [](const std::string& name) { return [=](const fs::path& d) { make_fifo(d / name); }; };
+  const auto loop = [](const std::string& name) { return [=](const fs::path& d) { make_loop(d / name); }; };
+  std::vector<Case> c = {
+      {"inputs", "--volume .nrrd is a FIFO", fifo("v.nrrd"), kR + "--volume v.nrrd", 1, "v.nrrd: is a FIFO"},
+      {"inputs", "--volume .nhdr is a FIFO", fifo("v.nhdr"), kR + "--volume v.nhdr", 1, "v.nhdr: is a FIFO"},
+      {"inputs", "detached NRRD data file is a FIFO",
+       both(file("v.nhdr", templates().nhdr), fifo("v.raw")), kR + "--volume v.nhdr", 1, "FIFO"},
+      {"inputs", "--volume .nii is a FIFO", fifo("v.nii"), kR + "--volume v.nii", 1, "v.nii: is a FIFO"},
+      {"inputs", "--volume .nii.gz is a FIFO", fifo("v.nii.gz"), kR + "--volume v.nii.gz", 1, "FIFO"},
+      {"inputs", "--volume .tif is a FIFO", fifo("v.tif"), kR + "--volume v.tif", 1, "v.tif: is a FIFO"},
+      {"inputs", "a TIFF slice in a stack is a FIFO", [](const fs::path& d) { fs::create_directory(d / "stack"); make_fifo(d / "stack" / "a.tif"); },
+       kR + "--volume stack", 1, "FIFO"},
+      {"inputs", "a TIFF slice in a stack is a symlink loop",
+       [](const fs::path& d) { fs::create_directory(d / "stack"); make_loop(d / "stack" / "a.tif"); }, kR + "--volume stack", 1,
+       "too many levels of symbolic links"},
+      {"inputs", "--labels .nrrd is a FIFO", both(file("v.nrrd", templates().nrrd), fifo("l.nrrd")),
+       kR + "--volume v.nrrd --labels l.nrrd", 1, "l.nrrd: is a FIFO"},
+      {"inputs", "--tf is a FIFO", fifo("tf.json"), small + "--tf tf.json", 1, "tf.json: is a FIFO"},
+      {"inputs", "--camera is a FIFO", fifo("cam.json"), small + "--camera cam.json", 1, "cam.json: is a FIFO"},
+      {"inputs", "--tf is a symlink loop", loop("tf.json"), small + "--tf tf.json", 1, "too many levels of symbolic links"},
+      {"inputs", "--camera is /dev/zero", [](const fs::path& d) { make_link(d / "cam.json", "/dev/zero"); },
+       small + "--camera cam.json", 1, "character device"},
+      {"inputs", "--volume .nrrd is a symlink loop", loop("v.nrrd"), kR + "--volume v.nrrd", 1,
+       "too many levels of symbolic links"},
+      {"inputs", "info of a FIFO", fifo("v.nrrd"), "info v.nrrd", 1, "FIFO"},
+      {"inputs", "ingest from a FIFO", fifo("v.nrrd"), "ingest v.nrrd o.zarr", 1, "FIFO"},
+  };
+  return c;
+}
+
+TEST(BadInputCorpus, InputPathsThatAreNotFiles) { run_corpus(input_path_cases()); }
 TEST(BadInputCorpus, Zarr3Sharded) { run_corpus(zarr3_cases()); }
 TEST(BadInputCorpus, NgffMultiscales) { run_corpus(ngff_cases()); }
 TEST(BadInputCorpus, Precomputed) { run_corpus(precomputed_cases()); }

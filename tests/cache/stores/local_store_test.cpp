@@ -70,10 +70,12 @@ TEST_F(LocalStoreInputs, NonRegularObjectsAreRefusedAtOnceWithWhatTheyAre) {
   EXPECT_NE(error_of([&] { s.read_range("fifo", 0, 16); }).find("FIFO"), std::string::npos);
   EXPECT_NE(error_of([&] { s.read_suffix("fifo", 16); }).find("FIFO"), std::string::npos);
   EXPECT_NE(error_of([&] { s.read("to_fifo", 16); }).find("FIFO"), std::string::npos);
-  EXPECT_NE(error_of([&] { s.read("sub", 16); }).find("is a directory, not a regular file"), std::string::npos);
+  EXPECT_NE(error_of([&] { s.read("sub", 16); }).find("is a directory"), std::string::npos);
   EXPECT_NE(error_of([&] { s.read("zero", 16); }).find("character device"), std::string::npos);
   EXPECT_NE(error_of([&] { s.read("loop", 16); }).find("too many levels of symbolic links"), std::string::npos);
-  if (have_socket) EXPECT_NE(error_of([&] { s.read("sock", 16); }).find("socket"), std::string::npos);
+  if (have_socket) {
+    EXPECT_NE(error_of([&] { s.read("sock", 16); }).find("socket"), std::string::npos);
+  }
   EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(5));  // nothing waited for a writer
   EXPECT_FALSE(s.read("absent", 16).has_value());
   EXPECT_FALSE(s.size_if_known("fifo").has_value());
