@@ -338,5 +338,41 @@ TEST(ZarrOverHttp, MetadataNotFoundOrForbiddenIsOneLineNamingTheUrl) {
   }
 }
 
+// Whole reads carry their caller's bound: an announced length past it is refused before the body is
+// read, a body streamed past it is cut off, and a key that could leave the base is refused before any
+// request.
+TEST(HttpByteStore, WholeReadsAreBoundedAndKeysStayBelowTheBase) {
+  std::string content;
+  const fs::path root = object_root(content);
+  test::HttpTestServer server(root, "--hostile");
+  const HttpByteStore s(server.url(), quick(1));
+  const auto error = [&](const std::string& key, std::uint64_t bound) {
+    try {
+      s.read(key, bound);
+    } catch (const TransientError& e) {
+      return std::string("transient: ") + e.what();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    } catch (const std::runtime_error& e) {
+      return std::string("runtime: ") + e.what();
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_EQ(s.read("a/obj", 1000), bytes_of(content));
+  EXPECT_EQ(error("a/obj", 999), server.url("a/obj") + ": the answer announces 1000 bytes, over the 999 bytes bound for this read");
+  EXPECT_NE(error("hostile-huge-length", kMaxMetadataBytes)
+                .find("announces 68719476736 bytes (65536 MiB), over the 67108864 bytes (64 MiB) bound"),
+            std::string::npos);
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(error("hostile-endless", 1 << 20),
+            server.url("hostile-endless") + ": the answer holds more than the 1048576 bytes (1 MiB) bound for this read");
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+  const std::uint64_t before = http_counters().requests;
+  for (const char* key : {"../a/obj", "%2e%2e/a/obj", "a/%2E%2E/%2e%2e/x", "a\\..\\..\\x", "/etc/passwd"}) {
+    EXPECT_EQ(error(key, 1000).rfind("runtime: key '", 0), 0u) << key;
+  }
+  EXPECT_EQ(http_counters().requests, before);  // refused without a request
+}
+
 }  // namespace
 }  // namespace sl
