@@ -26,8 +26,12 @@ namespace {
 // take all memory. Whole-object reads carry their caller's bound (byte_store.h).
 constexpr std::uint64_t kMaxBodyBytes = std::uint64_t(4) << 30;
 
-// The pool of easy handles and the share object behind every HttpByteStore. It lives for the whole
-// process (never destroyed), since loader threads may still hold a handle while statics are torn down.
+// The share object behind every HttpByteStore: connections, DNS and TLS sessions are reused through
+// it. Easy handles are not: each request gets a fresh one, since an easy handle keeps per-request
+// state across curl_easy_reset (libcurl 7.88 keeps the last header of the previous answer, and an
+// answer that opens with a folded header line then writes through that stale pointer: a hostile
+// server could corrupt memory; found by the http_response fuzzer). It lives for the whole process
+// (never destroyed), since loader threads may still hold a handle while statics are torn down.
 class Client {
  public:
   Client() {
@@ -41,22 +45,11 @@ class Client {
     curl_share_setopt(share_, CURLSHOPT_SHARE, CURL_LOCK_DATA_SSL_SESSION);
   }
   CURL* acquire() {
-    {
-      std::lock_guard g(pool_mutex_);
-      if (!idle_.empty()) {
-        CURL* h = idle_.back();
-        idle_.pop_back();
-        return h;
-      }
-    }
     CURL* h = curl_easy_init();
     if (!h) throw std::runtime_error("libcurl could not create a handle");
     return h;
   }
-  void release(CURL* h) {
-    std::lock_guard g(pool_mutex_);
-    idle_.push_back(h);
-  }
+  void release(CURL* h) { curl_easy_cleanup(h); }
   CURLSH* share() const { return share_; }
 
  private:
@@ -69,8 +62,6 @@ class Client {
   static constexpr std::size_t kLocks = CURL_LOCK_DATA_LAST;
   CURLSH* share_ = nullptr;
   std::mutex locks_[kLocks];
-  std::mutex pool_mutex_;
-  std::vector<CURL*> idle_;
 };
 
 Client& client() {
@@ -208,7 +199,7 @@ std::string range_text(const HttpByteStore::Range& r) {
 
 bool is_ranged(const HttpByteStore::Range& r) { return r.suffix || r.n > 0; }
 
-// One try: the request on a pooled handle, counted.
+// One try: the request on a fresh handle (connections come from the share), counted.
 Response perform(const std::string& u, const HttpByteStore::Range& r, const HttpOptions& options, std::uint64_t limit) {
   HttpCounters& counters = http_counters();
   const std::string range = range_text(r);
@@ -216,7 +207,6 @@ Response perform(const std::string& u, const HttpByteStore::Range& r, const Http
   res.limit = limit;
   {
     Handle h;
-    curl_easy_reset(h.h);  // keeps the shared connections and DNS cache
     curl_easy_setopt(h.h, CURLOPT_SHARE, client().share());
     curl_easy_setopt(h.h, CURLOPT_URL, u.c_str());
     curl_easy_setopt(h.h, CURLOPT_PROTOCOLS_STR, "http,https");

@@ -1,6 +1,6 @@
 // HttpByteStore: a chunked store (Zarr v2/v3, precomputed) read over HTTP(S) with libcurl.
 //
-// One process-wide client: a pool of easy handles sharing one CURLSH connection and DNS cache, so the
+// One process-wide client: easy handles (one per request) sharing one CURLSH connection and DNS cache, so the
 // loader threads run requests in parallel and each reuses a kept-alive connection. Objects are GETs,
 // byte ranges `Range: bytes=a-b` (checked against the 206's Content-Range; a 200 carrying the whole
 // object is sliced and counted), suffix ranges `bytes=-n` (a shard index at the end). 404/410 = the

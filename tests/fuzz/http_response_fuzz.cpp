@@ -37,7 +37,7 @@ class Server {
   void serve(const std::string& answer, const std::atomic<bool>& done) {
     while (!done.load()) {
       pollfd p{fd_, POLLIN, 0};
-      if (::poll(&p, 1, 20) <= 0) continue;
+      if (::poll(&p, 1, 2) <= 0) continue;
       const int c = ::accept4(fd_, nullptr, nullptr, SOCK_CLOEXEC);
       if (c < 0) continue;
       // The request: up to its blank line (or 64 KiB, or 1 s).
