@@ -182,6 +182,16 @@ std::vector<Case> zarr3_cases() {
        "s3.zarr"},
       {"zarr3", "grid of 0 shards cannot happen (shape 1)", shard({big, big, big}, {big, big, 1}, {1, 1, 1}), r, 1,
        "s3.zarr"},
+      // Members of an unexpected JSON type: the metadata's fault (exit 1), never an internal error.
+      {"zarr3", "chunk_key_encoding name is a number", zarr3_level0([](json& j) { j["chunk_key_encoding"]["name"] = 5; }), r,
+       1, "unexpected JSON type"},
+      {"zarr3", "node_type is a list", zarr3_level0([](json& j) { j["node_type"] = json::array(); }), r, 1,
+       "unexpected JSON type"},
+      {"zarr3", "index_location is a number", zarr3_level0([](json& j) { j["codecs"][0]["configuration"]["index_location"] = 1; }),
+       r, 1, "unexpected JSON type"},
+      {"zarr3", "root node_type is a number", zarr3_root([](json& j) { j["node_type"] = 3; }), r, 1, "unexpected JSON type"},
+      {"zarr3", "axis name is a number", zarr3_root(ome([](json& j) { j["multiscales"][0]["axes"][0]["name"] = 7; })), r, 1,
+       "s3.zarr"},
       // Non-regular files and loops.
       {"zarr3", "root zarr.json is a FIFO", zarr3([](const fs::path& s) { make_fifo(s / "zarr.json"); }), r, 1, "FIFO"},
       {"zarr3", "level zarr.json is a FIFO", zarr3([](const fs::path& s) { make_fifo(s / "0" / "zarr.json"); }), r, 1,

@@ -329,8 +329,40 @@ std::string join_key(const std::string& prefix, const std::string& key) {
   return prefix.back() == '/' ? prefix + key : prefix + "/" + key;
 }
 
+namespace {
+
+// A member of an unexpected type (a number where a name belongs) that reaches one of nlohmann's typed
+// reads is the metadata's fault like every other refusal here: one InputError naming the store.
+template <class F> auto typed_json(const std::string& store, const std::string& where, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const json::exception& e) {
+    std::string w = e.what();
+    const auto pos = w.find("] ");
+    throw InputError(store, where + "unexpected JSON type (" + (pos == std::string::npos ? w : w.substr(pos + 2)) + ")");
+  }
+}
+
+Multiscale open_multiscale_checked(std::shared_ptr<const ByteStore> bytes, const std::string& prefix,
+                                   const std::string& store, const std::string& what);
+StoreInfo open_store_checked(std::shared_ptr<const ByteStore> bytes, const std::string& path);
+
+}  // namespace
+
 Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& store,
                            const std::string& what) {
+  return typed_json(store, what.empty() ? "" : "group '" + what + "': ",
+                    [&] { return open_multiscale_checked(std::move(bytes), prefix, store, what); });
+}
+
+StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
+  return typed_json(path, "", [&] { return open_store_checked(std::move(bytes), path); });
+}
+
+namespace {
+
+Multiscale open_multiscale_checked(std::shared_ptr<const ByteStore> bytes, const std::string& prefix,
+                                   const std::string& store, const std::string& what) {
   SL_CHECK(bytes != nullptr);
   Multiscale m;
   m.bytes = bytes;
@@ -372,7 +404,7 @@ std::optional<Multiscale> open_max_pyramid(const std::shared_ptr<const ByteStore
   return m;
 }
 
-StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
+StoreInfo open_store_checked(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
   StoreInfo s;
   s.path = path;
   s.image = open_multiscale(bytes, "", path, "");
@@ -405,6 +437,8 @@ StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& 
   }
   return s;
 }
+
+}  // namespace
 
 StoreInfo open_store(const std::string& path) {
   if (is_url(path)) return open_store(open_byte_store(path), path);

@@ -39,7 +39,28 @@ std::vector<std::int64_t> int_list(const json& j, const char* key) {
 
 }  // namespace
 
+namespace {
+
+// The checks below read values of a type they test first, but a member of an unexpected type (a
+// number where a name belongs) can still reach one of nlohmann's typed reads: its type_error is the
+// metadata's fault like every other refusal here.
+ArrayMeta parse_array_checked(const json& j);
+
+}  // namespace
+
 ArrayMeta parse_array(const json& j) {
+  try {
+    return parse_array_checked(j);
+  } catch (const json::exception& e) {
+    std::string what = e.what();
+    const auto pos = what.find("] ");  // "[json.exception.type_error.302] type must be string, but is number"
+    throw std::runtime_error("unexpected JSON type (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
+  }
+}
+
+namespace {
+
+ArrayMeta parse_array_checked(const json& j) {
   if (!j.is_object()) throw std::runtime_error(".zarray is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 2) {
     throw std::runtime_error("zarr_format must be 2 in a .zarray (Zarr v3 arrays keep their metadata in zarr.json)");
@@ -96,6 +117,8 @@ ArrayMeta parse_array(const json& j) {
   m.compressor = parse_compressor(j.contains("compressor") ? j["compressor"] : json());
   return m;
 }
+
+}  // namespace
 
 std::string dtype_string(VoxelType t) {
   switch (t) {

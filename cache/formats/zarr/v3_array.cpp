@@ -65,7 +65,28 @@ double parse_fill(const json& fv, Stored s) {
 
 }  // namespace
 
+namespace {
+
+// The checks below read values of a type they test first, but a member of an unexpected type (a
+// number where a name belongs) can still reach one of nlohmann's typed reads: its type_error is the
+// metadata's fault like every other refusal here.
+ArrayMeta parse_array_checked(const json& j);
+
+}  // namespace
+
 ArrayMeta parse_array(const json& j) {
+  try {
+    return parse_array_checked(j);
+  } catch (const json::exception& e) {
+    std::string what = e.what();
+    const auto pos = what.find("] ");  // "[json.exception.type_error.302] type must be string, but is number"
+    throw std::runtime_error("unexpected JSON type (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
+  }
+}
+
+namespace {
+
+ArrayMeta parse_array_checked(const json& j) {
   if (!j.is_object()) fail("zarr.json is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 3) fail("zarr_format must be 3");
   if (j.value("node_type", std::string()) != "array") fail("node_type must be \"array\"");
@@ -134,5 +155,7 @@ ArrayMeta parse_array(const json& j) {
   m.v3 = std::move(a);
   return m;
 }
+
+}  // namespace
 
 }  // namespace sl::zarr::v3

@@ -147,7 +147,12 @@ TEST(Zarr3Codec, RefusesWhatItCannotDecode) {
   j["codecs"] = {{{"name", "bytes"}}};
   j["chunk_key_encoding"] = {{"name", "v3"}};
   expect_refused(j, "chunk_key_encoding must be named");
+  j["chunk_key_encoding"] = {{"name", 5}};
+  expect_refused(j, "unexpected JSON type (type must be string, but is number)");
   j["chunk_key_encoding"] = {{"name", "v2"}};
+  j["node_type"] = json::array();
+  expect_refused(j, "unexpected JSON type");
+  j["node_type"] = "array";
   j["fill_value"] = "NaN";
   expect_refused(j, "fill_value \"NaN\" is not a number of the data type");
 }
