@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "apps/commands.h"
+#include "apps/scene_loader.h"
 #include "cache/formats/nifti/nifti.h"
 #include "cache/formats/nrrd/nrrd.h"
 #include "cache/stores/store_url.h"
@@ -95,6 +96,10 @@ void print_zarr(const std::string& path, bool stats) {
     if (stats) std::printf("  max label %u\n", ZarrVolumeSource(path).max_label());
   }
   if (stats) {
+    // The range is taken over level 0 read whole: refused, naming its size, before allocating it.
+    const zarr::StoreInfo si = zarr::open_store(path);
+    check_fits_in_memory(si.image.desc.byte_size(), path, "--stats reads level 0 whole; it",
+                         " (its range is not computed out of core)");
     const Volume v = read_zarr_volume(path);
     const vec2 r = value_range(v);
     std::printf("  range   %g .. %g\n", r.x, r.y);
@@ -131,6 +136,7 @@ void print_precomputed(const std::string& path, bool stats) {
     if (s.sharding) std::printf("       sharded: %s\n", s.sharding->describe().c_str());
   }
   if (stats) {
+    check_fits_in_memory(d.byte_size(), path, "--stats reads scale 0 whole; it", " (its range is not computed out of core)");
     if (info.segmentation) std::printf("  max label %u\n", open_precomputed(path, path)->max_label());
     const vec2 r = value_range(read_precomputed_volume(path));
     std::printf("  range   %g .. %g\n", r.x, r.y);

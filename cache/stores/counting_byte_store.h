@@ -14,7 +14,9 @@ class CountingByteStore final : public ByteStore {
  public:
   explicit CountingByteStore(std::shared_ptr<const ByteStore> inner) : inner_(std::move(inner)) {}
 
-  std::optional<std::vector<std::byte>> read(const std::string& key) const override { return count(inner_->read(key)); }
+  std::optional<std::vector<std::byte>> read(const std::string& key, std::uint64_t max_bytes) const override {
+    return count(inner_->read(key, max_bytes));
+  }
   std::optional<std::vector<std::byte>> read_range(const std::string& key, std::uint64_t offset,
                                                    std::uint64_t n) const override {
     return count(inner_->read_range(key, offset, n));

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <vector>
 
+#include "core/util/checked.h"
 #include "core/util/error.h"
 
 namespace sl {
@@ -332,8 +333,10 @@ std::optional<std::vector<std::byte>> CachedByteStore::through(const std::string
   return v;
 }
 
-std::optional<std::vector<std::byte>> CachedByteStore::read(const std::string& key) const {
-  return through(name_ + "/" + key, [&] { return inner_->read(key); });
+std::optional<std::vector<std::byte>> CachedByteStore::read(const std::string& key, std::uint64_t max_bytes) const {
+  std::optional<std::vector<std::byte>> r = through(name_ + "/" + key, [&] { return inner_->read(key, max_bytes); });
+  if (r) checked_bound(r->size(), max_bytes, "object");
+  return r;
 }
 
 std::optional<std::vector<std::byte>> CachedByteStore::read_range(const std::string& key, std::uint64_t offset,

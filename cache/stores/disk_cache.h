@@ -89,7 +89,7 @@ class CachedByteStore final : public ByteStore {
   CachedByteStore(std::shared_ptr<const ByteStore> inner, std::string name, std::shared_ptr<DiskCache> cache)
       : inner_(std::move(inner)), name_(std::move(name)), cache_(std::move(cache)) {}
 
-  std::optional<std::vector<std::byte>> read(const std::string& key) const override;
+  std::optional<std::vector<std::byte>> read(const std::string& key, std::uint64_t max_bytes) const override;
   std::optional<std::vector<std::byte>> read_range(const std::string& key, std::uint64_t offset,
                                                    std::uint64_t n) const override;
   std::optional<std::vector<std::byte>> read_suffix(const std::string& key, std::uint64_t n) const override;

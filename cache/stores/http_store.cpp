@@ -3,6 +3,7 @@
 #include <curl/curl.h>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -12,18 +13,25 @@
 #include <thread>
 #include <vector>
 
+#include "cache/stores/store_key.h"
+#include "core/util/checked.h"
 #include "core/util/config.h"
 #include "core/util/error.h"
 
 namespace sl {
 namespace {
 
-// Whole objects and the body of any answer are bounded: the largest chunk accepted decodes to 1 GiB
-// (cache/formats/zarr/meta.cpp), and a server that streams without end must not take all memory.
+// The body of an answer to a range request is bounded too (a server that ignores Range sends the whole
+// object, which is sliced): a shard is at most this big; a server that streams without end must not
+// take all memory. Whole-object reads carry their caller's bound (byte_store.h).
 constexpr std::uint64_t kMaxBodyBytes = std::uint64_t(4) << 30;
 
-// The pool of easy handles and the share object behind every HttpByteStore. It lives for the whole
-// process (never destroyed), since loader threads may still hold a handle while statics are torn down.
+// The share object behind every HttpByteStore: connections, DNS and TLS sessions are reused through
+// it. Easy handles are not: each request gets a fresh one, since an easy handle keeps per-request
+// state across curl_easy_reset (libcurl 7.88 keeps the last header of the previous answer, and an
+// answer that opens with a folded header line then writes through that stale pointer: a hostile
+// server could corrupt memory; found by the http_response fuzzer). It lives for the whole process
+// (never destroyed), since loader threads may still hold a handle while statics are torn down.
 class Client {
  public:
   Client() {
@@ -37,22 +45,11 @@ class Client {
     curl_share_setopt(share_, CURLSHOPT_SHARE, CURL_LOCK_DATA_SSL_SESSION);
   }
   CURL* acquire() {
-    {
-      std::lock_guard g(pool_mutex_);
-      if (!idle_.empty()) {
-        CURL* h = idle_.back();
-        idle_.pop_back();
-        return h;
-      }
-    }
     CURL* h = curl_easy_init();
     if (!h) throw std::runtime_error("libcurl could not create a handle");
     return h;
   }
-  void release(CURL* h) {
-    std::lock_guard g(pool_mutex_);
-    idle_.push_back(h);
-  }
+  void release(CURL* h) { curl_easy_cleanup(h); }
   CURLSH* share() const { return share_; }
 
  private:
@@ -65,8 +62,6 @@ class Client {
   static constexpr std::size_t kLocks = CURL_LOCK_DATA_LAST;
   CURLSH* share_ = nullptr;
   std::mutex locks_[kLocks];
-  std::mutex pool_mutex_;
-  std::vector<CURL*> idle_;
 };
 
 Client& client() {
@@ -85,6 +80,9 @@ struct Response {
   std::string reason;         // the status line's reason phrase (HTTP/1.x)
   std::string content_range;  // of the last response (redirects reset it)
   std::vector<std::byte> body;
+  std::uint64_t limit = kMaxBodyBytes;  // largest body accepted
+  long current_status = 0;              // of the response whose headers are arriving
+  std::uint64_t announced = 0;          // its Content-Length, when past `limit`
   bool too_large = false;
   char error[CURL_ERROR_SIZE] = {};
 };
@@ -92,7 +90,7 @@ struct Response {
 std::size_t on_body(char* p, std::size_t size, std::size_t n, void* user) {
   Response& r = *static_cast<Response*>(user);
   const std::size_t bytes = size * n;
-  if (r.body.size() + bytes > kMaxBodyBytes) {
+  if (bytes > r.limit - std::min<std::uint64_t>(r.body.size(), r.limit)) {
     r.too_large = true;
     return 0;  // aborts the transfer (CURLE_WRITE_ERROR)
   }
@@ -117,6 +115,19 @@ std::size_t on_header(char* p, std::size_t size, std::size_t n, void* user) {
     const std::size_t a = line.find(' ');
     const std::size_t b = a == std::string::npos ? a : line.find(' ', a + 1);
     r.reason = b == std::string::npos ? std::string() : trim(line.substr(b + 1));
+    r.current_status = a == std::string::npos ? 0 : std::strtol(line.c_str() + a + 1, nullptr, 10);
+  } else if (line.size() > 15 && strncasecmp(line.c_str(), "content-length:", 15) == 0) {
+    // A body announced past the bound is refused before any of it is read (a redirect's or an error's
+    // body is not kept, so only a success counts).
+    const std::string v = trim(line.substr(15));
+    char* end = nullptr;
+    const unsigned long long n = std::strtoull(v.c_str(), &end, 10);
+    if (r.current_status >= 200 && r.current_status < 300 && !v.empty() && std::isdigit(static_cast<unsigned char>(v[0])) &&
+        end != v.c_str() && n > r.limit) {
+      r.too_large = true;
+      r.announced = n;
+      return 0;  // aborts the transfer
+    }
   } else if (line.size() > 14 && strncasecmp(line.c_str(), "content-range:", 14) == 0) {
     r.content_range = trim(line.substr(14));
   }
@@ -188,14 +199,14 @@ std::string range_text(const HttpByteStore::Range& r) {
 
 bool is_ranged(const HttpByteStore::Range& r) { return r.suffix || r.n > 0; }
 
-// One try: the request on a pooled handle, counted.
-Response perform(const std::string& u, const HttpByteStore::Range& r, const HttpOptions& options) {
+// One try: the request on a fresh handle (connections come from the share), counted.
+Response perform(const std::string& u, const HttpByteStore::Range& r, const HttpOptions& options, std::uint64_t limit) {
   HttpCounters& counters = http_counters();
   const std::string range = range_text(r);
   Response res;
+  res.limit = limit;
   {
     Handle h;
-    curl_easy_reset(h.h);  // keeps the shared connections and DNS cache
     curl_easy_setopt(h.h, CURLOPT_SHARE, client().share());
     curl_easy_setopt(h.h, CURLOPT_URL, u.c_str());
     curl_easy_setopt(h.h, CURLOPT_PROTOCOLS_STR, "http,https");
@@ -236,7 +247,11 @@ Answer failed(std::string why) { return {std::nullopt, std::move(why)}; }
 
 // A transfer that did not complete: transient (tried again) or not (thrown).
 Answer transfer_failure(const Response& res, const std::string& u) {
-  if (res.too_large) throw InputError(u, "the answer exceeds " + std::to_string(kMaxBodyBytes >> 30) + " GiB");
+  if (res.too_large) {
+    throw InputError(u, (res.announced ? "the answer announces " + bytes_text(res.announced) + ", over"
+                                       : std::string("the answer holds more than")) +
+                            " the " + bytes_text(res.limit) + " bound for this read");
+  }
   // curl's own text, and the detail (host, port, elapsed time) when it gives one.
   std::string why = curl_easy_strerror(res.code);
   if (res.error[0] && why.find(res.error) == std::string::npos && std::string(res.error).find(why) == std::string::npos) {
@@ -244,6 +259,8 @@ Answer transfer_failure(const Response& res, const std::string& u) {
   } else if (res.error[0]) {
     why = res.error;
   }
+  // libcurl says "Out of memory" for an answer whose header lines pass its bound: name what happened.
+  if (res.code == CURLE_OUT_OF_MEMORY) why = "the answer's headers exceed libcurl's bound (" + why + ")";
   if (!transient(res.code)) throw InputError(u, why);
   return failed(why);
 }
@@ -328,27 +345,29 @@ HttpByteStore::HttpByteStore(std::string base, HttpOptions options) : base_(std:
   client();  // curl_global_init before any thread uses the client
 }
 
-std::string HttpByteStore::url(const std::string& key) const { return key.empty() ? base_ : base_ + "/" + key; }
+std::string HttpByteStore::url(const std::string& key) const { return store_url(base_, key); }
 
-std::optional<std::vector<std::byte>> HttpByteStore::read(const std::string& key) const { return fetch(key, {}); }
+std::optional<std::vector<std::byte>> HttpByteStore::read(const std::string& key, std::uint64_t max_bytes) const {
+  return fetch(key, {}, max_bytes);
+}
 
 std::optional<std::vector<std::byte>> HttpByteStore::read_range(const std::string& key, std::uint64_t offset,
                                                                 std::uint64_t n) const {
   if (n == 0) return std::vector<std::byte>();  // "bytes=a-(a-1)" is no range; nothing to fetch
-  return fetch(key, {false, offset, n});
+  return fetch(key, {false, offset, n}, kMaxBodyBytes);
 }
 
 std::optional<std::vector<std::byte>> HttpByteStore::read_suffix(const std::string& key, std::uint64_t n) const {
   SL_CHECK(n > 0);
-  return fetch(key, {true, 0, n});
+  return fetch(key, {true, 0, n}, kMaxBodyBytes);
 }
 
-std::optional<std::vector<std::byte>> HttpByteStore::fetch(const std::string& key, Range r) const {
+std::optional<std::vector<std::byte>> HttpByteStore::fetch(const std::string& key, Range r, std::uint64_t limit) const {
   const std::string u = url(key);
   HttpCounters& counters = http_counters();
   long wait_ms = options_.backoff_ms;
   for (int attempt = 1;; ++attempt) {
-    Answer a = interpret(perform(u, r, options_), r, u);
+    Answer a = interpret(perform(u, r, options_, limit), r, u);
     if (a.failure.empty()) return std::move(a.bytes);
     if (attempt >= options_.tries) {
       counters.failed.fetch_add(1, std::memory_order_relaxed);

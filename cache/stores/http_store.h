@@ -1,6 +1,6 @@
 // HttpByteStore: a chunked store (Zarr v2/v3, precomputed) read over HTTP(S) with libcurl.
 //
-// One process-wide client: a pool of easy handles sharing one CURLSH connection and DNS cache, so the
+// One process-wide client: easy handles (one per request) sharing one CURLSH connection and DNS cache, so the
 // loader threads run requests in parallel and each reuses a kept-alive connection. Objects are GETs,
 // byte ranges `Range: bytes=a-b` (checked against the 206's Content-Range; a 200 carrying the whole
 // object is sliced and counted), suffix ranges `bytes=-n` (a shard index at the end). 404/410 = the
@@ -46,12 +46,13 @@ class HttpByteStore final : public ByteStore {
   // `base` is http://… or https://… (no trailing slash needed); keys are appended after a '/'.
   explicit HttpByteStore(std::string base, HttpOptions options = http_options_from_env());
 
-  std::optional<std::vector<std::byte>> read(const std::string& key) const override;
+  std::optional<std::vector<std::byte>> read(const std::string& key, std::uint64_t max_bytes) const override;
   std::optional<std::vector<std::byte>> read_range(const std::string& key, std::uint64_t offset,
                                                    std::uint64_t n) const override;
   std::optional<std::vector<std::byte>> read_suffix(const std::string& key, std::uint64_t n) const override;
 
   const std::string& base() const { return base_; }
+  // The URL of `key` (store_key.h: refused when it could leave the base).
   std::string url(const std::string& key) const;
 
   // What one read asks for.
@@ -61,7 +62,7 @@ class HttpByteStore final : public ByteStore {
   };
 
  private:
-  std::optional<std::vector<std::byte>> fetch(const std::string& key, Range r) const;
+  std::optional<std::vector<std::byte>> fetch(const std::string& key, Range r, std::uint64_t limit) const;
 
   std::string base_;
   HttpOptions options_;

@@ -54,7 +54,9 @@ StoreLocation recognise_store(const std::string& path) {
   if (local_zarr(path)) return {StoreKind::Zarr, path};
   std::error_code ec;
   const fs::path d(path);
-  if (fs::is_directory(d, ec) && fs::is_regular_file(d / "info", ec)) return {StoreKind::Precomputed, path};
+  // An `info` of any kind (a FIFO, a symlink loop) makes it precomputed: that reader then names what is
+  // wrong with it.
+  if (fs::is_directory(d, ec) && fs::exists(fs::symlink_status(d / "info", ec))) return {StoreKind::Precomputed, path};
   return {StoreKind::None, path};
 }
 

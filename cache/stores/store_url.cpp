@@ -72,9 +72,9 @@ std::shared_ptr<const ByteStore> open_byte_store(const std::string& path) {
 
 StoreKind probe_store_kind(const ByteStore& bytes) {
   for (const char* k : {"zarr.json", ".zattrs", ".zarray", ".zgroup"}) {
-    if (bytes.read(k)) return StoreKind::Zarr;
+    if (bytes.read(k, kMaxMetadataBytes)) return StoreKind::Zarr;
   }
-  return bytes.read("info") ? StoreKind::Precomputed : StoreKind::None;
+  return bytes.read("info", kMaxMetadataBytes) ? StoreKind::Precomputed : StoreKind::None;
 }
 
 StoreLocation recognise_url(const std::string& spec) {

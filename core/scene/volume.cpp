@@ -20,6 +20,13 @@ const char* to_string(VoxelType t) {
   return "?";
 }
 
+std::string voxel_size_problem(double v) {
+  if (std::isnan(v)) return "is not a number";
+  if (!(v > 0.0)) return "is not positive";
+  if (!(v >= kMinVoxelSize && v <= kMaxVoxelSize)) return "is outside 1e-12..1e12";
+  return {};
+}
+
 void validate_desc(const VolumeDesc& d, const std::string& file, std::uint64_t max_bytes) {
   for (int a = 0; a < 3; ++a) {
     if (d.dims[a] <= 0) {

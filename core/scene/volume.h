@@ -28,6 +28,13 @@ struct VolumeDesc {
   float min_spacing() const { return glm::min(spacing.x, glm::min(spacing.y, spacing.z)); }
 };
 
+// The voxel sizes a store's metadata may declare (an NGFF scale, a precomputed resolution), in any
+// unit: a size outside this range (0, denormal, 1e30) would make the volume's world box, and every
+// camera placed around it, degenerate, so it is refused as the metadata's fault.
+inline constexpr double kMinVoxelSize = 1e-12, kMaxVoxelSize = 1e12;
+// "" when `v` is a usable voxel size, else why not ("is not a number", "is outside 1e-12..1e12").
+std::string voxel_size_problem(double v);
+
 // Throws InputError naming `file` when dims/spacing are zero, negative, non-finite or so large that the
 // voxel count overflows or cannot be held in memory (`max_bytes`).
 void validate_desc(const VolumeDesc& d, const std::string& file,

@@ -1,10 +1,14 @@
 #include "core/util/json_util.h"
 
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <cmath>
-#include <filesystem>
-#include <fstream>
+#include <cstring>
 
 #include "core/util/error.h"
+#include "core/util/input_file.h"
 
 namespace sl {
 
@@ -25,21 +29,31 @@ bool read_json_bytes(std::istream& in, std::string& out) {
 }
 
 std::string read_file_text(const std::string& path) {
-  // An ifstream opens a directory without complaint and then reads nothing ("malformed JSON").
-  std::error_code ec;
-  if (std::filesystem::is_directory(path, ec)) throw InputError(path, "is a directory");
-  const std::uintmax_t size = std::filesystem::file_size(path, ec);
-  if (!ec) {
-    if (const std::string why = json_too_large(size); !why.empty()) throw InputError(path, why);
+  // Opened without blocking and refused unless a regular file (a FIFO would wait for a writer forever;
+  // a directory reads as nothing, "malformed JSON").
+  const int fd = open_input_fd(path);
+  if (fd < 0) throw InputError(path, "cannot open file (no such file)");
+  struct Closer {
+    int fd;
+    ~Closer() { ::close(fd); }
+  } closer{fd};
+  struct stat st {};
+  if (::fstat(fd, &st) == 0) {
+    if (const std::string why = json_too_large(std::uintmax_t(st.st_size)); !why.empty()) throw InputError(path, why);
   }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(path, "cannot open file");
   std::string text;
-  if (!read_json_bytes(in, text)) {
-    throw InputError(path, "holds more than " + std::to_string(kMaxJsonBytes >> 20) +
-                               " MiB; JSON files are read and parsed whole in memory, at most that");
+  char buf[1 << 16];
+  for (;;) {
+    const ssize_t r = ::read(fd, buf, sizeof buf);
+    if (r < 0 && errno == EINTR) continue;
+    if (r < 0) throw InputError(path, std::string("read error (") + std::strerror(errno) + ")");
+    if (r == 0) break;
+    text.append(buf, std::size_t(r));
+    if (text.size() > kMaxJsonBytes) {
+      throw InputError(path, "holds more than " + std::to_string(kMaxJsonBytes >> 20) +
+                                 " MiB; JSON files are read and parsed whole in memory, at most that");
+    }
   }
-  if (in.bad()) throw InputError(path, "read error");
   return text;
 }
 

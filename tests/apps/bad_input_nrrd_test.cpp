@@ -67,7 +67,7 @@ std::vector<Case> nrrd_cases() {
          lab.as<std::uint32_t>()[100] = 0xFFFFFFFFu;
          write_nrrd((d / "l.nrrd").string(), lab);
        }, r + " --labels l.nrrd --mode labels", 1, "l.nrrd: largest label id 4294967295"},
-      {"nrrd", "a device as the volume", kNothing, kRender + "--volume /dev/zero", 1, "/dev/zero: not a NRRD file"},
+      {"nrrd", "a device as the volume", kNothing, kRender + "--volume /dev/zero", 1, "/dev/zero: is a character device, not a regular file"},
       {"nrrd", "a device as the data file", file("v.nhdr", replaced(t.nhdr, "data file: v.raw", "data file: /dev/zero")),
        kRender + "--volume v.nhdr", 1, "v.nhdr: data file '/dev/zero'"},
       {"nrrd", "info of a truncated file", file("v.nrrd", head.substr(0, 20)), "info v.nrrd", 1, "v.nrrd: "},

@@ -11,8 +11,16 @@ fraction P of the requests whose path contains --fault-paths (default: every pat
   stall     no answer for --stall seconds (past the client's timeout), then the connection is closed
   truncate  (Range requests) a 206 whose body is half the range it announces
 --fail-always SUBSTR answers 500 to every request whose path contains SUBSTR (a brick that fails for
-good). --no-range answers every Range request with 200 and the whole file. Each request is logged to
---log as "METHOD PATH RANGE STATUS FAULT". The server exits by itself after --max-seconds.
+good). --no-range answers every Range request with 200 and the whole file. The path is percent-decoded
+before it is looked up, as real servers do. With --hostile, a path containing one of these words gets
+a hostile answer instead of the file (the bad-input corpus's HTTP cases):
+  hostile-huge-length    200 announcing a 64 GiB body, then zeros until the client hangs up
+  hostile-endless        200 with a chunked body that never ends
+  hostile-bad-length     200 with "Content-Length: -5"
+  hostile-chunked-garbage 200 chunked, with a chunk size that is not hex
+  hostile-long-header    200 with a 300 kB header line
+Each request is logged to --log as "METHOD PATH RANGE STATUS FAULT". The server exits by itself after
+--max-seconds.
 """
 import argparse
 import http.server
@@ -24,6 +32,7 @@ import socketserver
 import sys
 import threading
 import time
+import urllib.parse
 
 
 def main():
@@ -40,6 +49,7 @@ def main():
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--no-range", action="store_true")
     ap.add_argument("--max-seconds", type=float, default=600.0)
+    ap.add_argument("--hostile", action="store_true")
     a = ap.parse_args()
 
     root = os.path.realpath(a.root)
@@ -85,8 +95,43 @@ def main():
             if self.command != "HEAD":
                 self.wfile.write(body)
 
+        def hostile(self, path):
+            def raw(text):
+                self.wfile.write(text.encode())
+                self.wfile.flush()
+            self.close_connection = True
+            try:
+                if "hostile-huge-length" in path:
+                    self.note("", 200, "huge-length")
+                    raw("HTTP/1.1 200 OK\r\nContent-Length: 68719476736\r\n\r\n")
+                    zeros = b"0" * (1 << 20)
+                    for _ in range(1 << 16):
+                        self.wfile.write(zeros)
+                elif "hostile-endless" in path:
+                    self.note("", 200, "endless")
+                    raw("HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\n")
+                    chunk = b"100000\r\n" + b"1" * (1 << 20) + b"\r\n"
+                    for _ in range(1 << 16):
+                        self.wfile.write(chunk)
+                elif "hostile-bad-length" in path:
+                    self.note("", 200, "bad-length")
+                    raw("HTTP/1.1 200 OK\r\nContent-Length: -5\r\n\r\n{}")
+                elif "hostile-chunked-garbage" in path:
+                    self.note("", 200, "chunked-garbage")
+                    raw("HTTP/1.1 200 OK\r\nTransfer-Encoding: chunked\r\n\r\nzz\r\n{}\r\n0\r\n\r\n")
+                elif "hostile-long-header" in path:
+                    self.note("", 200, "long-header")
+                    raw("HTTP/1.1 200 OK\r\nX-Junk: " + "a" * 300000 + "\r\nContent-Length: 2\r\n\r\n{}")
+                else:
+                    return False
+            except (BrokenPipeError, ConnectionResetError):
+                pass
+            return True
+
         def serve(self):
-            path = self.path.split("?", 1)[0]
+            path = urllib.parse.unquote(self.path.split("?", 1)[0])
+            if a.hostile and self.hostile(path):
+                return
             rel = os.path.normpath(path.lstrip("/"))
             file = os.path.realpath(os.path.join(root, rel))
             range_header = self.headers.get("Range", "")

@@ -18,20 +18,20 @@ namespace {
 class MemoryStore final : public sl::ByteStore {
  public:
   MemoryStore(std::string_view info, std::optional<std::string_view> object) : info_(info), object_(object) {}
-  std::optional<std::vector<std::byte>> read(const std::string& key) const override {
+  std::optional<std::vector<std::byte>> read(const std::string& key, std::uint64_t) const override {
     if (key == "info") return bytes(info_);
     if (!object_) return std::nullopt;
     return bytes(*object_);
   }
   std::optional<std::vector<std::byte>> read_range(const std::string& key, std::uint64_t offset,
                                                    std::uint64_t n) const override {
-    std::optional<std::vector<std::byte>> all = read(key);
+    std::optional<std::vector<std::byte>> all = read(key, sl::kMaxChunkObjectBytes);
     if (!all) return std::nullopt;
     if (offset > all->size() || n > all->size() - offset) throw std::runtime_error("byte range past the end");
     return std::vector<std::byte>(all->begin() + std::ptrdiff_t(offset), all->begin() + std::ptrdiff_t(offset + n));
   }
   std::optional<std::vector<std::byte>> read_suffix(const std::string& key, std::uint64_t n) const override {
-    std::optional<std::vector<std::byte>> all = read(key);
+    std::optional<std::vector<std::byte>> all = read(key, sl::kMaxChunkObjectBytes);
     if (!all) return std::nullopt;
     if (n > all->size()) throw std::runtime_error("suffix past the start");
     return std::vector<std::byte>(all->end() - std::ptrdiff_t(n), all->end());

@@ -19,6 +19,7 @@
 #include <vector>
 
 #include "core/util/error.h"
+#include "core/util/input_file.h"
 
 namespace sl {
 namespace {
@@ -118,6 +119,7 @@ std::string why_refused(const std::string& path) {
 class NiftiFile {
  public:
   explicit NiftiFile(const std::string& path) {
+    check_input_file(path);  // libnifti would block on a FIFO
     const double vox_offset = check_stored_header(path, version_);
     open_image(path, vox_offset);
   }

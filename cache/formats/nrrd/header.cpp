@@ -10,8 +10,11 @@
 #include <map>
 #include <vector>
 
+#include <unistd.h>
+
 #include "cache/formats/nrrd/nrrd.h"
 #include "core/util/error.h"
+#include "core/util/input_file.h"
 
 namespace sl {
 namespace nrrd_detail {
@@ -304,12 +307,18 @@ std::string lower(std::string s) {
 }
 
 File open_read(const std::string& path, const std::string& who, const std::string& what) {
-  std::error_code ec;
-  if (fs::is_directory(path, ec)) throw InputError(who, what + "is a directory, not a file");
-  File f(std::fopen(path.c_str(), "rb"));
+  // Without blocking, and only a regular file (input_file.h): a FIFO would wait for a writer forever.
+  int fd = -1;
+  try {
+    fd = open_input_fd(path);
+  } catch (const InputError& e) {
+    throw InputError(who, what + (who == path ? e.reason() : e.what()));
+  }
+  if (fd < 0) throw InputError(who, what + "file not found");
+  File f(::fdopen(fd, "rb"));
   if (!f) {
-    throw InputError(who, what + (errno == ENOENT ? std::string("file not found")
-                                                  : "cannot open: " + errno_text()));
+    ::close(fd);
+    throw InputError(who, what + "cannot open: " + errno_text());
   }
   return f;
 }

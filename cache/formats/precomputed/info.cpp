@@ -1,8 +1,11 @@
 #include "cache/formats/precomputed/info.h"
 
+#include <bit>
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include "cache/stores/store_key.h"
+#include "core/util/checked.h"
 #include "core/util/error.h"
 
 namespace sl::precomputed {
@@ -156,8 +159,15 @@ Info parse_info(const std::string& text, const std::string& store) {
     }
     sc.key = s["key"].get<std::string>();
     Ctx sctx{store, "info: " + sc.name(int(l))};
-    // A key names a directory below the volume's own; never a way out of it.
-    if (sc.key.front() == '/' || sc.key.find("..") != std::string::npos) sctx.fail("key must be a relative path without '..'");
+    // A key names a directory below the volume's own, never a way out of it: checked as every store
+    // checks the keys it reads (store_key.h), after every percent-decoding a server would apply.
+    try {
+      if (store_key(sc.key).empty()) sctx.fail("key must name a directory inside the volume");
+    } catch (const InputError&) {
+      throw;
+    } catch (const std::runtime_error& e) {
+      sctx.fail(e.what());
+    }
     sc.size = int3(s, "size", 1, kMaxSize, sctx);
     sc.voxel_offset = int3(s, "voxel_offset", -kMaxOffset, kMaxOffset, sctx);
     if (!s.contains("resolution") || !s["resolution"].is_array() || s["resolution"].size() != 3) {
@@ -165,8 +175,9 @@ Info parse_info(const std::string& text, const std::string& store) {
     }
     for (int i = 0; i < 3; ++i) {
       const json& r = s["resolution"][std::size_t(i)];
-      if (!r.is_number() || !std::isfinite(r.get<double>()) || r.get<double>() <= 0.0 || r.get<double>() > 1e30) {
-        sctx.fail("\"resolution\" must hold positive finite numbers");
+      if (!r.is_number()) sctx.fail("\"resolution\" must hold positive finite numbers");
+      if (const std::string why = voxel_size_problem(r.get<double>()); !why.empty()) {
+        sctx.fail("\"resolution\" " + r.dump() + " along " + "xyz"[i] + " " + why + " (a voxel size sparseleap can place in world space)");
       }
       sc.resolution[i] = float(r.get<double>());
     }
@@ -176,7 +187,13 @@ Info parse_info(const std::string& text, const std::string& store) {
     json first = json::object();
     first["chunk"] = s["chunk_sizes"][0];
     sc.chunk = int3(first, "chunk", 1, kMaxSize, sctx);
-    if (std::uint64_t(sc.chunk.x) * std::uint64_t(sc.chunk.y) * std::uint64_t(sc.chunk.z) > kMaxChunkVoxels) {
+    std::uint64_t chunk_voxels = 0;
+    try {
+      chunk_voxels = checked_product({sc.chunk.x, sc.chunk.y, sc.chunk.z}, "chunk voxels");
+    } catch (const SizeOverflow& e) {
+      sctx.fail(e.what());
+    }
+    if (chunk_voxels > kMaxChunkVoxels) {
       sctx.fail("chunk " + vec_text(sc.chunk) + " holds more than 2^24 voxels");
     }
     if (!s.contains("encoding") || !s["encoding"].is_string()) sctx.fail("lacks a string \"encoding\"");
@@ -190,7 +207,17 @@ Info parse_info(const std::string& text, const std::string& store) {
     } else if (enc != "raw") {
       sctx.fail("encoding '" + enc + "' is not supported (raw, compressed_segmentation)");
     }
-    if (s.contains("sharding")) sc.sharding = parse_sharding(s["sharding"], sctx);
+    if (s.contains("sharding")) {
+      sc.sharding = parse_sharding(s["sharding"], sctx);
+      // A chunk's id is the compressed Morton code of its grid position (shard.h): its bits must fit
+      // 64, or ids of different chunks would collide.
+      int id_bits = 0;
+      for (int i = 0; i < 3; ++i) id_bits += int(std::bit_width(std::uint32_t(sc.grid()[i] - 1)));
+      if (id_bits > 64) {
+        sctx.fail("chunk grid " + vec_text(sc.grid()) + " needs " + std::to_string(id_bits) +
+                  " bits of sharded chunk id, more than 64");
+      }
+    }
     if (l > 0) {
       const ivec3 p = info.scales[l - 1].size;
       for (int i = 0; i < 3; ++i) {

@@ -6,6 +6,7 @@
 #include <stdexcept>
 
 #include "cache/formats/precomputed/chunk.h"
+#include "cache/stores/byte_store.h"
 
 namespace sl::precomputed {
 namespace {
@@ -27,8 +28,8 @@ std::uint64_t u64_at(std::span<const std::byte> b, std::size_t i) {
   return v;
 }
 
-// Largest minishard index accepted: 2^24 chunks in one minishard.
-constexpr std::size_t kMaxMinishardIndexBytes = std::size_t(24) << 24;
+// Largest minishard index accepted (byte_store.h's bound for any index read whole).
+constexpr std::size_t kMaxMinishardIndexBytes = kMaxIndexBytes;
 
 }  // namespace
 

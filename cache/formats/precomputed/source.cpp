@@ -7,6 +7,7 @@
 #include "cache/formats/precomputed/shard.h"
 #include "cache/pyramid.h"
 #include "cache/stores/store_url.h"
+#include "core/util/checked.h"
 #include "core/util/error.h"
 
 namespace sl {
@@ -24,7 +25,7 @@ VolumeReader::VolumeReader(std::shared_ptr<const ByteStore> bytes, std::string n
   SL_CHECK(bytes_ != nullptr && cache_ != nullptr);
   std::optional<std::vector<std::byte>> text;
   try {
-    text = bytes_->read("info");
+    text = bytes_->read("info", kMaxMetadataBytes);
   } catch (const TransientError& e) {
     throw TransientError(name_, std::string("info: ") + e.what());
   } catch (const std::runtime_error& e) {
@@ -52,7 +53,10 @@ std::string VolumeReader::chunk_name(int level, ivec3 c) const {
 
 std::optional<std::vector<std::byte>> VolumeReader::chunk_data(int level, ivec3 c) const {
   const Scale& s = info_.scales[std::size_t(level)];
-  if (!s.sharding) return bytes_->read(s.key + "/" + chunk_name(level, c));
+  if (!s.sharding) {
+    const std::size_t n_vox = std::size_t(s.chunk.x) * std::size_t(s.chunk.y) * std::size_t(s.chunk.z);
+    return bytes_->read(s.key + "/" + chunk_name(level, c), 16 * n_vox + (std::size_t(1) << 20));
+  }
   const Sharding& sh = *s.sharding;
   const std::uint64_t id = compressed_morton_code(c, s.grid());
   const ShardLocation loc = locate_chunk(sh, id);
@@ -66,6 +70,8 @@ std::optional<std::vector<std::byte>> VolumeReader::chunk_data(int level, ivec3 
     const ByteRange r = decode_shard_index_entry(sh, *entry);
     std::vector<MinishardEntry> entries;
     if (r.end > r.start) {
+      // Bounded before it is read: the entry is the shard file's word, not ours.
+      checked_bound(r.end - r.start, kMaxIndexBytes, "minishard index");
       const std::optional<std::vector<std::byte>> stored = bytes_->read_range(file, r.start, r.end - r.start);
       if (!stored) return std::nullopt;
       entries = decode_minishard_index(sh, *stored, r);
@@ -78,9 +84,12 @@ std::optional<std::vector<std::byte>> VolumeReader::chunk_data(int level, ivec3 
   const auto* e = reinterpret_cast<const MinishardEntry*>(index->data());
   for (std::size_t i = 0, n = index->size() / sizeof(MinishardEntry); i < n; ++i) {
     if (e[i].chunk_id != id) continue;
+    const std::size_t n_vox = std::size_t(s.chunk.x) * std::size_t(s.chunk.y) * std::size_t(s.chunk.z);
+    // At most what the largest encoding of the chunk takes (16 bytes a voxel and a table bound the
+    // compressed_segmentation form, the largest), before the minishard's size is trusted to allocate.
+    checked_bound(e[i].size, 16 * n_vox + (std::size_t(1) << 20), "chunk");
     std::optional<std::vector<std::byte>> data = bytes_->read_range(file, e[i].offset, e[i].size);
     if (data && sh.gzip_data) {
-      const std::size_t n_vox = std::size_t(s.chunk.x) * std::size_t(s.chunk.y) * std::size_t(s.chunk.z);
       // Raw: exactly the chunk; compressed_segmentation: at most 32 bits and a table entry per voxel.
       data = gunzip(*data, s.encoding == Encoding::Raw ? n_vox * std::size_t(data_type_size(info_.data_type))
                                                        : 16 * n_vox + (std::size_t(1) << 20));

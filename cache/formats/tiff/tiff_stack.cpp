@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "core/util/error.h"
+#include "core/util/input_file.h"
 
 namespace sl {
 namespace {
@@ -121,6 +122,7 @@ void read_page(TIFF* t, const PageFormat& f, std::byte* dst, const std::string& 
 
 Tiff open_tiff(const std::string& file) {
   t_tiff_error.clear();
+  check_input_file(file);  // libtiff would block on a FIFO
   Tiff t(TIFFOpen(file.c_str(), "r"));
   if (!t) fail(file, "cannot open as TIFF");
   return t;
@@ -135,7 +137,10 @@ class TiffStack final : public SlabReader {
       for (const auto& e : fs::directory_iterator(path, ec)) {
         std::string ext = e.path().extension().string();
         for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
-        if (e.is_regular_file() && (ext == ".tif" || ext == ".tiff")) files_.push_back(e.path().string());
+        // Whatever is not a directory is listed: a FIFO, device or symlink loop among the slices is then
+        // refused by name when it is opened (open_tiff), not skipped or thrown as a filesystem error.
+        std::error_code fec;
+        if ((ext == ".tif" || ext == ".tiff") && !e.is_directory(fec)) files_.push_back(e.path().string());
       }
       if (ec) throw InputError(path, "cannot list directory: " + ec.message());
       if (files_.empty()) throw InputError(path, "directory holds no .tif/.tiff files");

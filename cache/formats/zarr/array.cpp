@@ -63,7 +63,7 @@ ChunkCache::Chunk ArrayReader::chunk(int level, ivec3 c) const {
   const auto where = [&] { return level_name(m_, level) + " chunk '" + rel + "': "; };
   std::optional<std::vector<std::byte>> raw;
   try {
-    raw = m_.bytes->read(object);
+    raw = m_.bytes->read(object, kMaxChunkObjectBytes);
   } catch (const TransientError& e) {
     throw TransientError(store_, where() + e.what());  // the brick loader retries it (core/util/error.h)
   } catch (const std::runtime_error& e) {

@@ -1,6 +1,7 @@
 #include "cache/formats/zarr/meta.h"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <optional>
 #include <limits>
@@ -9,7 +10,9 @@
 #include "cache/formats/zarr/v2_array.h"
 #include "cache/formats/zarr/v3_array.h"
 #include "cache/formats/zarr/v3_codec.h"
+#include "cache/stores/store_key.h"
 #include "cache/stores/store_url.h"
+#include "core/util/checked.h"
 #include "core/util/config.h"
 #include "core/util/error.h"
 #include "core/util/json_util.h"
@@ -34,7 +37,7 @@ std::optional<json> read_json(const ByteStore& bytes, const std::string& key, co
   }
   std::optional<std::vector<std::byte>> raw;
   try {
-    raw = bytes.read(key);
+    raw = bytes.read(key, kMaxMetadataBytes);
   } catch (const TransientError& e) {
     throw TransientError(store, where + "cannot read '" + file + "' (" + e.what() + ")");
   } catch (const std::runtime_error& e) {
@@ -82,6 +85,19 @@ std::vector<double> scale_of(const json& j, std::size_t ndim) {
     }
   }
   return s;
+}
+
+// The spatial entries (the last three) of a level's scale, after every product, must be usable voxel
+// sizes (core/scene/volume.h); `file` is the metadata object that declares them.
+void check_scale(const std::vector<double>& s, const std::string& file, std::size_t level) {
+  for (std::size_t i = s.size() >= 3 ? s.size() - 3 : 0; i < s.size(); ++i) {
+    if (const std::string why = voxel_size_problem(s[i]); !why.empty()) {
+      char v[32];
+      std::snprintf(v, sizeof v, "%g", s[i]);
+      throw std::runtime_error(file + ": dataset " + std::to_string(level) + " scale " + v + " along " +
+                               "zyx"[i + 3 - s.size()] + " " + why + " (a voxel size sparseleap can place in world space)");
+    }
+  }
 }
 
 void check_axes(const json& ms, std::size_t ndim) {
@@ -189,7 +205,14 @@ void read_multiscales(Multiscale& m, const json& mss, bool v3, const std::string
       if (!d.is_object() || !d.contains("path") || !d["path"].is_string()) {
         throw std::runtime_error("every dataset needs a string \"path\"");
       }
-      m.levels.push_back({d["path"].get<std::string>(), {}, ivec3(0), vec3(1.0f)});
+      // A path names an array inside this store (store_key.h), never "../other.zarr".
+      const std::string path = d["path"].get<std::string>();
+      try {
+        store_key(path);
+      } catch (const std::runtime_error& e) {
+        throw std::runtime_error(std::string("dataset path: ") + e.what());
+      }
+      m.levels.push_back({path, {}, ivec3(0), vec3(1.0f)});
     }
     if (m.levels.size() > 15) throw std::runtime_error("more than 15 levels");
     for (std::size_t l = 0; l < m.levels.size(); ++l) {
@@ -202,6 +225,7 @@ void read_multiscales(Multiscale& m, const json& mss, bool v3, const std::string
       if (!s.empty() && !global.empty()) {
         for (std::size_t i = 0; i < s.size(); ++i) s[i] *= global[i];
       }
+      check_scale(s, v3 ? join_key(m.prefix, "zarr.json") : join_key(m.prefix, ".zattrs"), l);
       scales.push_back(s);
       if (!s.empty()) lv.scale = xyz_of(s);
     }
@@ -261,8 +285,10 @@ void set_desc(Multiscale& m, const std::string& store) {
   m.desc.spacing = m.levels[0].scale;
   m.desc.type = m.levels[0].meta.type;
   // Out-of-core volumes may exceed memory, not 64-bit byte counts (each dim is < 2^31 already).
-  const double total = double(m.desc.dims.x) * double(m.desc.dims.y) * double(m.desc.dims.z) * voxel_size(m.desc.type);
-  if (total >= 0x1p63) {
+  std::uint64_t total = 0;
+  const bool wraps = __builtin_mul_overflow(std::uint64_t(m.desc.dims.x) * std::uint64_t(m.desc.dims.y),
+                                            std::uint64_t(m.desc.dims.z) * std::uint64_t(voxel_size(m.desc.type)), &total);
+  if (wraps || total >= (std::uint64_t(1) << 63)) {
     throw InputError(store, level_name(m, 0) + ": shape " + std::to_string(m.desc.dims.x) + "x" +
                                 std::to_string(m.desc.dims.y) + "x" + std::to_string(m.desc.dims.z) +
                                 " overflows a 64-bit byte count");
@@ -281,9 +307,8 @@ ivec3 ArrayMeta::chunk_dims() const {
   return ivec3(int(chunks[n - 1]), int(chunks[n - 2]), int(chunks[n - 3]));
 }
 std::size_t ArrayMeta::chunk_bytes() const {
-  std::size_t b = std::size_t(voxel_size(type));
-  for (std::int64_t c : chunks) b *= std::size_t(c);
-  return b;
+  // Checked when the metadata were parsed (at most kMaxChunkBytes); checked again, it costs nothing.
+  return std::size_t(checked_product(std::span<const std::int64_t>(chunks), "decoded chunk bytes", std::uint64_t(voxel_size(type))));
 }
 std::string ArrayMeta::chunk_key(ivec3 c) const {
   std::string k;
@@ -304,8 +329,40 @@ std::string join_key(const std::string& prefix, const std::string& key) {
   return prefix.back() == '/' ? prefix + key : prefix + "/" + key;
 }
 
+namespace {
+
+// A member of an unexpected type (a number where a name belongs) that reaches one of nlohmann's typed
+// reads is the metadata's fault like every other refusal here: one InputError naming the store.
+template <class F> auto typed_json(const std::string& store, const std::string& where, F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const json::exception& e) {
+    std::string w = e.what();
+    const auto pos = w.find("] ");
+    throw InputError(store, where + "unexpected JSON type (" + (pos == std::string::npos ? w : w.substr(pos + 2)) + ")");
+  }
+}
+
+Multiscale open_multiscale_checked(std::shared_ptr<const ByteStore> bytes, const std::string& prefix,
+                                   const std::string& store, const std::string& what);
+StoreInfo open_store_checked(std::shared_ptr<const ByteStore> bytes, const std::string& path);
+
+}  // namespace
+
 Multiscale open_multiscale(std::shared_ptr<const ByteStore> bytes, const std::string& prefix, const std::string& store,
                            const std::string& what) {
+  return typed_json(store, what.empty() ? "" : "group '" + what + "': ",
+                    [&] { return open_multiscale_checked(std::move(bytes), prefix, store, what); });
+}
+
+StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
+  return typed_json(path, "", [&] { return open_store_checked(std::move(bytes), path); });
+}
+
+namespace {
+
+Multiscale open_multiscale_checked(std::shared_ptr<const ByteStore> bytes, const std::string& prefix,
+                                   const std::string& store, const std::string& what) {
   SL_CHECK(bytes != nullptr);
   Multiscale m;
   m.bytes = bytes;
@@ -347,7 +404,7 @@ std::optional<Multiscale> open_max_pyramid(const std::shared_ptr<const ByteStore
   return m;
 }
 
-StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
+StoreInfo open_store_checked(std::shared_ptr<const ByteStore> bytes, const std::string& path) {
   StoreInfo s;
   s.path = path;
   s.image = open_multiscale(bytes, "", path, "");
@@ -381,13 +438,18 @@ StoreInfo open_store(std::shared_ptr<const ByteStore> bytes, const std::string& 
   return s;
 }
 
+}  // namespace
+
 StoreInfo open_store(const std::string& path) {
   if (is_url(path)) return open_store(open_byte_store(path), path);
   std::string p = path;
   while (p.size() > 1 && p.back() == '/') p.pop_back();
   const fs::path dir(p);
-  if (!fs::exists(dir)) throw InputError(path, "no such store (directory)");
-  if (!fs::is_directory(dir)) throw InputError(path, "a Zarr store must be a directory");
+  std::error_code ec;
+  const fs::file_status st = fs::status(dir, ec);
+  if (ec && ec != std::errc::no_such_file_or_directory) throw InputError(path, "cannot open the store (" + ec.message() + ")");
+  if (!fs::exists(st)) throw InputError(path, "no such store (directory)");
+  if (!fs::is_directory(st)) throw InputError(path, "a Zarr store must be a directory");
   return open_store(std::make_shared<LocalByteStore>(p), path);
 }
 

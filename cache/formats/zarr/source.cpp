@@ -55,7 +55,7 @@ ZarrVolumeSource::ZarrVolumeSource(const std::string& path, const std::string& l
     const bool v3 = lm.levels[0].meta.v3 != nullptr;
     std::optional<std::vector<std::byte>> raw;
     try {
-      raw = lm.bytes->read(zarr::join_key(lm.prefix, v3 ? "zarr.json" : ".zattrs"));
+      raw = lm.bytes->read(zarr::join_key(lm.prefix, v3 ? "zarr.json" : ".zattrs"), kMaxMetadataBytes);
     } catch (const std::runtime_error&) {
       // Read by open_multiscale already; a failure now only loses the shortcut.
     }

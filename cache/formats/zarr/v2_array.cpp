@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 #include <stdexcept>
 
+#include "core/util/checked.h"
+
 namespace sl::zarr::v2 {
 namespace {
 
@@ -37,7 +39,28 @@ std::vector<std::int64_t> int_list(const json& j, const char* key) {
 
 }  // namespace
 
+namespace {
+
+// The checks below read values of a type they test first, but a member of an unexpected type (a
+// number where a name belongs) can still reach one of nlohmann's typed reads: its type_error is the
+// metadata's fault like every other refusal here.
+ArrayMeta parse_array_checked(const json& j);
+
+}  // namespace
+
 ArrayMeta parse_array(const json& j) {
+  try {
+    return parse_array_checked(j);
+  } catch (const json::exception& e) {
+    std::string what = e.what();
+    const auto pos = what.find("] ");  // "[json.exception.type_error.302] type must be string, but is number"
+    throw std::runtime_error("unexpected JSON type (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
+  }
+}
+
+namespace {
+
+ArrayMeta parse_array_checked(const json& j) {
   if (!j.is_object()) throw std::runtime_error(".zarray is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 2) {
     throw std::runtime_error("zarr_format must be 2 in a .zarray (Zarr v3 arrays keep their metadata in zarr.json)");
@@ -66,9 +89,9 @@ ArrayMeta parse_array(const json& j) {
     throw std::runtime_error("dtype must be a string (structured dtypes are not supported)");
   }
   m.type = parse_dtype(j["dtype"].get<std::string>(), m.big_endian);
-  double bytes = double(voxel_size(m.type));
-  for (std::int64_t c : m.chunks) bytes *= double(c);
-  if (bytes > double(kMaxChunkBytes)) {
+  const std::uint64_t bytes =
+      checked_product(std::span<const std::int64_t>(m.chunks), "decoded chunk bytes", std::uint64_t(voxel_size(m.type)));
+  if (bytes > kMaxChunkBytes) {
     throw std::runtime_error("chunks of " + std::to_string(std::uint64_t(bytes)) + " bytes exceed the 1 GiB limit");
   }
   const std::string order = j.value("order", std::string("C"));
@@ -94,6 +117,8 @@ ArrayMeta parse_array(const json& j) {
   m.compressor = parse_compressor(j.contains("compressor") ? j["compressor"] : json());
   return m;
 }
+
+}  // namespace
 
 std::string dtype_string(VoxelType t) {
   switch (t) {

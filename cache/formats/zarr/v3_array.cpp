@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "cache/formats/zarr/v3_codec.h"
+#include "core/util/checked.h"
 
 namespace sl::zarr::v3 {
 namespace {
@@ -15,8 +16,9 @@ using json = nlohmann::json;
 
 [[noreturn]] void fail(const std::string& why) { throw std::runtime_error(why); }
 
-// Largest shard index accepted (the largest chunk is meta.h's kMaxChunkBytes).
-constexpr std::uint64_t kMaxInnerChunksPerShard = std::uint64_t(1) << 24;
+// Most inner chunks in one shard: its index (16 bytes each) is read whole and stays within
+// byte_store.h's kMaxIndexBytes (the largest chunk is meta.h's kMaxChunkBytes).
+constexpr std::uint64_t kMaxInnerChunksPerShard = std::uint64_t(1) << 22;
 
 std::vector<std::int64_t> positive_list(const json& j, const std::string& what, std::size_t n) {
   if (!j.is_array() || (n && j.size() != n) || j.empty()) {
@@ -63,7 +65,28 @@ double parse_fill(const json& fv, Stored s) {
 
 }  // namespace
 
+namespace {
+
+// The checks below read values of a type they test first, but a member of an unexpected type (a
+// number where a name belongs) can still reach one of nlohmann's typed reads: its type_error is the
+// metadata's fault like every other refusal here.
+ArrayMeta parse_array_checked(const json& j);
+
+}  // namespace
+
 ArrayMeta parse_array(const json& j) {
+  try {
+    return parse_array_checked(j);
+  } catch (const json::exception& e) {
+    std::string what = e.what();
+    const auto pos = what.find("] ");  // "[json.exception.type_error.302] type must be string, but is number"
+    throw std::runtime_error("unexpected JSON type (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
+  }
+}
+
+namespace {
+
+ArrayMeta parse_array_checked(const json& j) {
   if (!j.is_object()) fail("zarr.json is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 3) fail("zarr_format must be 3");
   if (j.value("node_type", std::string()) != "array") fail("node_type must be \"array\"");
@@ -102,16 +125,25 @@ ArrayMeta parse_array(const json& j) {
   m.fill = parse_fill(j.value("fill_value", json()), a->stored);
   a->chain = parse_chain(j.value("codecs", json()), a->grid, stored_size(a->stored), &a->shard);
   m.chunks = a->shard ? a->shard->inner : a->grid;
+  // Sizes from the metadata, checked before anything is sized from them (core/util/checked.h): the
+  // grid of chunks (of shards, when sharded) is ceil(shape / chunk) per axis, and its product.
+  std::vector<std::int64_t> chunk_grid(nd);
+  for (std::size_t i = 0; i < nd; ++i) {
+    chunk_grid[i] = std::int64_t(checked_ceil_div(std::uint64_t(m.shape[i]), std::uint64_t(a->grid[i]),
+                                                  a->shard ? "shard grid" : "chunk grid"));
+  }
+  checked_product(std::span<const std::int64_t>(chunk_grid), a->shard ? "shard grid" : "chunk grid");
   if (a->shard) {
-    std::uint64_t n = 1;
-    for (std::size_t i = 0; i < nd; ++i) n *= std::uint64_t(a->grid[i] / a->shard->inner[i]);
-    if (n > kMaxInnerChunksPerShard) fail("shards of " + std::to_string(n) + " inner chunks exceed the 2^24 limit");
+    std::vector<std::int64_t> per_shard(nd);
+    for (std::size_t i = 0; i < nd; ++i) per_shard[i] = a->grid[i] / a->shard->inner[i];
+    const std::uint64_t n = checked_product(std::span<const std::int64_t>(per_shard), "inner chunks per shard");
+    if (n > kMaxInnerChunksPerShard) {
+      fail("shards of " + std::to_string(n) + " inner chunks exceed the 2^22 limit (a 64 MiB shard index)");
+    }
   }
-  double bytes = double(voxel_size(m.type));
-  for (std::int64_t c : m.chunks) bytes *= double(c);
-  if (bytes > double(kMaxChunkBytes)) {
-    fail("chunks of " + std::to_string(std::uint64_t(bytes)) + " decoded bytes exceed the 1 GiB limit");
-  }
+  const std::uint64_t bytes =
+      checked_product(std::span<const std::int64_t>(m.chunks), "decoded chunk bytes", std::uint64_t(voxel_size(m.type)));
+  if (bytes > kMaxChunkBytes) fail("chunks of " + std::to_string(bytes) + " decoded bytes exceed the 1 GiB limit");
   if (j.contains("dimension_names") && !j["dimension_names"].is_null()) {
     const json& dn = j["dimension_names"];
     if (!dn.is_array() || dn.size() != nd) fail("dimension_names must list one name (or null) per axis");
@@ -123,5 +155,7 @@ ArrayMeta parse_array(const json& j) {
   m.v3 = std::move(a);
   return m;
 }
+
+}  // namespace
 
 }  // namespace sl::zarr::v3

@@ -75,7 +75,7 @@ std::optional<std::vector<std::byte>> read_unsharded(const ArrayCodecs& a, const
                                                      const std::string& array_dir, const std::vector<std::int64_t>& c) {
   const std::string key = a.key(c);
   try {
-    std::optional<std::vector<std::byte>> raw = bytes.read(array_dir + key);
+    std::optional<std::vector<std::byte>> raw = bytes.read(array_dir + key, kMaxChunkObjectBytes);
     if (!raw) return std::nullopt;
     return to_voxels(a.stored, decode_chain(a.chain, std::move(*raw), a.grid, stored_size(a.stored)));
   } catch (const TransientError& e) {

@@ -317,7 +317,7 @@ TEST(CachedByteStore, SecondReadsComeFromDisk) {
     auto cache = std::make_shared<DiskCache>((dir / "dc").string(), 1 << 20);  // a new process, same DIR
     const CachedByteStore s(http, server.url(), cache);
     const std::uint64_t before = http_counters().requests;
-    const auto whole = s.read("obj");
+    const auto whole = s.read("obj", kMaxChunkObjectBytes);
     const auto range = s.read_range("obj", 100, 200);
     const auto suffix = s.read_suffix("obj", 64);
     ASSERT_TRUE(whole && range && suffix);
@@ -326,7 +326,7 @@ TEST(CachedByteStore, SecondReadsComeFromDisk) {
     EXPECT_EQ(std::memcmp(suffix->data(), content.data() + content.size() - 64, 64), 0);
     EXPECT_EQ(http_counters().requests - before, run == 0 ? 3u : 0u);
     EXPECT_EQ(cache->counters().hits, run == 0 ? 0u : 3u);
-    EXPECT_FALSE(s.read("missing").has_value());  // not cached: asked each time
+    EXPECT_FALSE(s.read("missing", kMaxChunkObjectBytes).has_value());  // not cached: asked each time
   }
 }
 

@@ -59,11 +59,11 @@ TEST(HttpByteStore, ObjectsRangesSuffixesAndMissing) {
   test::HttpTestServer server(root);
   const HttpByteStore s(server.url(), quick());
   const std::uint64_t before = http_counters().requests, connections = http_counters().connections;
-  EXPECT_EQ(s.read("a/obj"), bytes_of(content));
+  EXPECT_EQ(s.read("a/obj", kMaxChunkObjectBytes), bytes_of(content));
   EXPECT_EQ(s.read_range("a/obj", 100, 50), bytes_of(content.substr(100, 50)));
   EXPECT_EQ(s.read_range("a/obj", 0, 1000), bytes_of(content));
   EXPECT_EQ(s.read_suffix("a/obj", 16), bytes_of(content.substr(984)));
-  EXPECT_FALSE(s.read("a/none").has_value());
+  EXPECT_FALSE(s.read("a/none", kMaxChunkObjectBytes).has_value());
   EXPECT_FALSE(s.read_range("none", 0, 4).has_value());
   EXPECT_FALSE(s.read_suffix("none", 4).has_value());
   EXPECT_EQ(http_counters().requests - before, 7u);
@@ -120,7 +120,7 @@ TEST(HttpByteStore, ForbiddenIsAPermanentErrorNamingTheUrl) {
   const HttpByteStore s(server.url(), quick());
   const std::uint64_t retries = http_counters().retries;
   try {
-    s.read("a/obj");
+    s.read("a/obj", kMaxChunkObjectBytes);
     FAIL() << "no error";
   } catch (const TransientError& e) {
     FAIL() << "transient: " << e.what();
@@ -141,7 +141,7 @@ void expect_transient(const std::string& fault, const std::string& expect_text, 
   const auto t0 = std::chrono::steady_clock::now();
   try {
     if (ranged) s.read_range("a/obj", 0, 500);
-    else s.read("a/obj");
+    else s.read("a/obj", kMaxChunkObjectBytes);
     FAIL() << "no error";
   } catch (const TransientError& e) {
     const std::string what = e.what();
@@ -336,6 +336,42 @@ TEST(ZarrOverHttp, MetadataNotFoundOrForbiddenIsOneLineNamingTheUrl) {
     EXPECT_EQ(std::string(e.what()), server.url("s.zarr") + ": level 0 (array '0'): cannot read '.zarray' (" +
                                          server.url("s.zarr/0/.zarray") + ": HTTP 403 Forbidden)");
   }
+}
+
+// Whole reads carry their caller's bound: an announced length past it is refused before the body is
+// read, a body streamed past it is cut off, and a key that could leave the base is refused before any
+// request.
+TEST(HttpByteStore, WholeReadsAreBoundedAndKeysStayBelowTheBase) {
+  std::string content;
+  const fs::path root = object_root(content);
+  test::HttpTestServer server(root, "--hostile");
+  const HttpByteStore s(server.url(), quick(1));
+  const auto error = [&](const std::string& key, std::uint64_t bound) {
+    try {
+      s.read(key, bound);
+    } catch (const TransientError& e) {
+      return std::string("transient: ") + e.what();
+    } catch (const InputError& e) {
+      return std::string(e.what());
+    } catch (const std::runtime_error& e) {
+      return std::string("runtime: ") + e.what();
+    }
+    return std::string("(no error)");
+  };
+  EXPECT_EQ(s.read("a/obj", 1000), bytes_of(content));
+  EXPECT_EQ(error("a/obj", 999), server.url("a/obj") + ": the answer announces 1000 bytes, over the 999 bytes bound for this read");
+  EXPECT_NE(error("hostile-huge-length", kMaxMetadataBytes)
+                .find("announces 68719476736 bytes (65536 MiB), over the 67108864 bytes (64 MiB) bound"),
+            std::string::npos);
+  const auto t0 = std::chrono::steady_clock::now();
+  EXPECT_EQ(error("hostile-endless", 1 << 20),
+            server.url("hostile-endless") + ": the answer holds more than the 1048576 bytes (1 MiB) bound for this read");
+  EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::seconds(10));
+  const std::uint64_t before = http_counters().requests;
+  for (const char* key : {"../a/obj", "%2e%2e/a/obj", "a/%2E%2E/%2e%2e/x", "a\\..\\..\\x", "/etc/passwd"}) {
+    EXPECT_EQ(error(key, 1000).rfind("runtime: key '", 0), 0u) << key;
+  }
+  EXPECT_EQ(http_counters().requests, before);  // refused without a request
 }
 
 }  // namespace

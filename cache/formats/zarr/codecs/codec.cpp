@@ -1,3 +1,4 @@
+#include "core/util/checked.h"
 #include "cache/formats/zarr/codecs/codec.h"
 
 #include <nlohmann/json.hpp>
@@ -48,9 +49,7 @@ std::string shape_text(const std::vector<std::int64_t>& shape) {
 }
 
 std::size_t element_count(const std::vector<std::int64_t>& shape) {
-  std::size_t n = 1;
-  for (std::int64_t s : shape) n *= std::size_t(s);
-  return n;
+  return std::size_t(checked_product(std::span<const std::int64_t>(shape), "elements of shape " + shape_text(shape)));
 }
 
 }  // namespace sl::zarr::v3::codecs

@@ -4,6 +4,8 @@
 #include <nlohmann/json.hpp>
 
 #include "cache/formats/zarr/codecs/codec.h"
+#include "cache/stores/byte_store.h"
+#include "core/util/checked.h"
 
 namespace sl::zarr::v3::codecs {
 namespace {
@@ -43,11 +45,13 @@ std::string parse_sharding_indexed(const json& config, const ChainShape& shape, 
   s.index_chain = parse_chain(config.contains("index_codecs") ? config["index_codecs"] : json(), ishape, 8, nullptr);
   if (!s.index_chain.transpose.empty()) fail("a transposed shard index is not supported");
   // The index's encoded size follows from the whole chain; it must be fixed (no compressor).
-  s.index_bytes = element_count(ishape) * 8;
+  s.index_bytes = checked_mul(element_count(ishape), 8, "shard index bytes");
   for (const Chain::Step& st : s.index_chain.steps) {
     if (!st.crc32c) fail("shard index codecs must have a fixed size (bytes and crc32c only)");
-    s.index_bytes += 4;
+    s.index_bytes = checked_add(s.index_bytes, 4, "shard index bytes");
   }
+  // Read whole, before any inner chunk of the shard: bounded before it is ever allocated.
+  checked_bound(s.index_bytes, kMaxIndexBytes + 64, "shard index");
   const std::string loc = config.value("index_location", std::string("end"));
   if (loc != "start" && loc != "end") fail("sharding_indexed index_location '" + loc + "' is not start or end");
   s.index_at_end = loc == "end";

@@ -6,6 +6,9 @@
 // byte by byte here, so this suite needs no peer.
 #include <gtest/gtest.h>
 
+#include <utility>
+#include <vector>
+
 #include <zlib.h>
 
 #include <cstring>
@@ -129,7 +132,28 @@ TEST_F(PrecomputedBadInput, MalformedOrUnsupportedInfo) {
   expect_info_error(bad_size, "\"size\" must hold integers in 1..");
   std::string escape = info_json("uint8", "");
   escape.replace(escape.find("\"s0\""), 4, "\"../s0\"");
-  expect_info_error(escape, "key must be a relative path without '..'");
+  expect_info_error(escape, "key '../s0' has a '..' segment");
+  // Keys a server would decode into a way out of the volume's URL, sizes that wrap, voxel sizes no
+  // camera can frame: each refused naming the scale and the value.
+  for (const auto& [key, why] : std::vector<std::pair<std::string, std::string>>{
+           {"%2e%2e/s0", "'..' segment"}, {"%2E%2E%2Fs0", "'..' segment"}, {"%252e%252e/s0", "'..' segment"},
+           {"/s0", "absolute path"}, {"s0%5c..", "backslash"}, {".", "inside the volume"}}) {
+    std::string k = info_json("uint8", "");
+    k.replace(k.find("\"s0\""), 4, "\"" + key + "\"");
+    expect_info_error(k, why);
+  }
+  std::string wrap = info_json("uint8", "");
+  wrap.replace(wrap.find("[[8,8,8]]"), 9, "[[1073741824,1073741824,16]]");
+  expect_info_error(wrap, "chunk voxels (1073741824 x 1073741824 x 16) overflows 64-bit arithmetic");
+  for (const char* res : {"[0,1,1]", "[1e30,1,1]", "[1e-320,1,1]", "[-1,1,1]"}) {
+    std::string r = info_json("uint8", "");
+    r.replace(r.find("[1,1,1]"), 7, res);
+    expect_info_error(r, "\"resolution\"");
+  }
+  std::string ids = info_json("uint8", kShard);
+  ids.replace(ids.find("[8,8,8],\"res"), 7, "[1073741824,1073741824,1073741824]");
+  ids.replace(ids.find("[[8,8,8]]"), 9, "[[1,1,1]]");
+  expect_info_error(ids, "needs 90 bits of sharded chunk id, more than 64");
   const std::string two = "{\"type\":\"image\",\"data_type\":\"uint8\",\"num_channels\":1,\"scales\":["
                           "{\"key\":\"a\",\"size\":[8,8,8],\"resolution\":[1,1,1],\"voxel_offset\":[0,0,0],\"chunk_sizes\":[[8,8,8]],\"encoding\":\"raw\"},"
                           "{\"key\":\"b\",\"size\":[4,4,8],\"resolution\":[2,2,1],\"voxel_offset\":[0,0,0],\"chunk_sizes\":[[8,8,8]],\"encoding\":\"raw\"}]}";
@@ -274,8 +298,8 @@ TEST_F(PrecomputedBadInput, GoodShardThroughTheProgram) {
 class FlakyStore final : public ByteStore {
  public:
   explicit FlakyStore(std::string root) : local_(std::move(root)) {}
-  std::optional<std::vector<std::byte>> read(const std::string& key) const override {
-    if (key == "info") return local_.read(key);
+  std::optional<std::vector<std::byte>> read(const std::string& key, std::uint64_t max_bytes) const override {
+    if (key == "info") return local_.read(key, max_bytes);
     throw TransientError("", "timed out");
   }
   std::optional<std::vector<std::byte>> read_range(const std::string&, std::uint64_t, std::uint64_t) const override {

@@ -23,7 +23,7 @@ class MemoryByteStore final : public ByteStore {
   std::map<std::string, std::vector<std::byte>> objects;
   mutable std::vector<std::string> requests;
 
-  std::optional<std::vector<std::byte>> read(const std::string& key) const override {
+  std::optional<std::vector<std::byte>> read(const std::string& key, std::uint64_t) const override {
     requests.push_back("all " + key);
     const auto it = objects.find(key);
     if (it == objects.end()) return std::nullopt;
@@ -147,9 +147,64 @@ TEST(Zarr3Codec, RefusesWhatItCannotDecode) {
   j["codecs"] = {{{"name", "bytes"}}};
   j["chunk_key_encoding"] = {{"name", "v3"}};
   expect_refused(j, "chunk_key_encoding must be named");
+  j["chunk_key_encoding"] = {{"name", 5}};
+  expect_refused(j, "unexpected JSON type (type must be string, but is number)");
   j["chunk_key_encoding"] = {{"name", "v2"}};
+  j["node_type"] = json::array();
+  expect_refused(j, "unexpected JSON type");
+  j["node_type"] = "array";
   j["fill_value"] = "NaN";
   expect_refused(j, "fill_value \"NaN\" is not a number of the data type");
+}
+
+// Shapes, chunk and shard sizes whose products or rounding-up divisions wrap 64 bits (or come near it)
+// are refused with the quantity named, never read as a small or empty grid.
+TEST(Zarr3Codec, SizeArithmeticIsCheckedNotWrapped) {
+  const json idx = {{{"name", "bytes"}, {"configuration", {{"endian", "little"}}}}};
+  const std::int64_t big = 2147483647;
+  // Five axes with the leading shard sizes at 2^31 - 1 and inner chunks of 1: 2^124 inner chunks per shard.
+  json j = sharded_array(idx);
+  j["shape"] = {1, 1, 4, 4, 8};
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {big, big, 4, 4, 8};
+  j["codecs"][0]["configuration"]["chunk_shape"] = {1, 1, 4, 4, 4};
+  expect_refused(j, "overflows 64-bit arithmetic");
+  // Four axes: 2^62 inner chunks per shard fits 64 bits but not the shard index bound.
+  j["shape"] = {1, 4, 4, 8};
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {big, 4, 4, 8};
+  j["codecs"][0]["configuration"]["chunk_shape"] = {1, 4, 4, 4};
+  expect_refused(j, "shard index of");
+  // A shard of 2^36 inner chunks: a 1 TiB index, refused before anything is read.
+  j = sharded_array(idx);
+  j["shape"] = {4096, 4096, 4096};
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {4096, 4096, 4096};
+  j["codecs"][0]["configuration"]["chunk_shape"] = {1, 1, 1};
+  expect_refused(j, "shard index of 1099511627776 bytes");
+  // 2^22 + some inner chunks: an index within the byte bound but over the inner-chunk limit.
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {2048, 2048, 2};
+  j["shape"] = {2048, 2048, 2};
+  j["codecs"][0]["configuration"]["chunk_shape"] = {1, 1, 1};
+  expect_refused(j, "shard index of");
+  // Unsharded chunks of (2^31 - 1)^3 elements: the decoded size wraps.
+  j = sharded_array(idx);
+  j["codecs"] = {{{"name", "bytes"}}};
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {big, big, big};
+  expect_refused(j, "overflows 64-bit arithmetic");
+  // Chunks of 1 over a (2^31 - 1)^3 shape: a chunk grid of 2^93.
+  j["shape"] = {big, big, big};
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {1, 1, 1};
+  expect_refused(j, "chunk grid (2147483647 x 2147483647 x 2147483647) overflows 64-bit arithmetic");
+  // Sharded: the shard grid.
+  j = sharded_array(idx);
+  j["shape"] = {big, big, big};
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {1, 1, 2};
+  j["codecs"][0]["configuration"]["chunk_shape"] = {1, 1, 1};
+  expect_refused(j, "shard grid (2147483647 x 2147483647 x 1073741824) overflows 64-bit arithmetic");
+  // Decoded chunks past 1 GiB, without wrapping.
+  j = sharded_array(idx);
+  j["codecs"] = {{{"name", "bytes"}}};
+  j["data_type"] = "uint8";
+  j["chunk_grid"]["configuration"]["chunk_shape"] = {2048, 2048, 512};
+  expect_refused(j, "exceed the 1 GiB limit");
 }
 
 TEST(Zarr3Codec, ChunkKeys) {
