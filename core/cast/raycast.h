@@ -600,8 +600,8 @@ struct RayCaster {
 
   // The spans from sample k of spans[s] on that lie in the brick the cursor finds at k, clipped to its
   // exit, into `sub` (their number), where slot_run's conditions hold there: resident with its cells
-  // and mask, one level throughout (so one stride of the level-adaptive grid: b.stride_log2), a slot
-  // the batch reads (`b` then holds it); 0 where they do not. Samples k .. e - 1 all lie in the brick when k and e - 1 do (a ray's voxel
+  // and mask, one level throughout (clipped where the level changes; so one stride of the
+  // level-adaptive grid: b.stride_log2), a slot the batch reads (`b` then holds it); 0 where they do not. Samples k .. e - 1 all lie in the brick when k and e - 1 do (a ray's voxel
   // coordinates are monotonic in t), gaps between spans included.
   int brick_spans(const Ray& ray, const vec3& inv_dir, float t_entry, const SampleSpan* spans, int n, int s, int k,
                   SampleContext& ctx, bool lod_varies, DvrBatchArgs& b, int& fits, SampleSpan* sub) const {
@@ -611,6 +611,20 @@ struct RayCaster {
     int e = sample_index(volume.cursor_exit(ray, inv_dir), t_entry, p.inv_dt);
     e = e < spans[n - 1].k1 ? e : spans[n - 1].k1;
     while (e > k + 1 && !volume.in_cursor(ray.at(t_entry + float(e - 1) * p.dt))) --e;
+    if (lod_varies && e > k + 1 && p.lod.level_at(t_entry + float(e - 1) * p.dt) != ctx.level) {
+      // The level changes inside the brick: up to its first position at the next level (the level
+      // does not decrease along the ray), where the next call goes on at that level's brick.
+      int lo = k + 1, hi = e - 1;  // level(k) is ctx.level; level(hi) is not
+      while (lo < hi) {
+        const int mid = lo + (hi - lo) / 2;
+        if (p.lod.level_at(t_entry + float(mid) * p.dt) == ctx.level) {
+          lo = mid + 1;
+        } else {
+          hi = mid;
+        }
+      }
+      e = lo;
+    }
     int m = 0;
     for (int j = s; j < n; ++j) {
       const int a = j == s ? k : spans[j].k0;
