@@ -57,15 +57,18 @@ std::string read_file_text(const std::string& path) {
   return text;
 }
 
+std::string json_error_text(const nlohmann::json::exception& e) {
+  const std::string what = e.what();
+  const auto pos = what.find("] ");
+  return pos == std::string::npos ? what : what.substr(pos + 2);
+}
+
 nlohmann::json parse_json(const std::string& text, const std::string& origin) {
   try {
     return nlohmann::json::parse(text);
   } catch (const nlohmann::json::exception& e) {
     // parse_error for syntax, out_of_range.406 for a number that overflows a double (1e999).
-    std::string what = e.what();
-    // nlohmann's message starts with "[json.exception.parse_error.101] "; keep what follows.
-    const auto pos = what.find("] ");
-    throw InputError(origin, "malformed JSON: " + (pos == std::string::npos ? what : what.substr(pos + 2)));
+    throw InputError(origin, "malformed JSON: " + json_error_text(e));
   }
 }
 

@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 #include <cstdint>
 #include <istream>
+#include <stdexcept>
 #include <string>
 
 #include "core/util/math.h"
@@ -21,6 +22,19 @@ bool read_json_bytes(std::istream& in, std::string& out);
 
 // Whole file as text; InputError(path, ...) when it cannot be read or exceeds kMaxJsonBytes.
 std::string read_file_text(const std::string& path);
+// nlohmann's message without its "[json.exception.type_error.302] " prefix.
+std::string json_error_text(const nlohmann::json::exception& e);
+// f(), where a member of an unexpected type (a number where a name belongs) that reaches one of
+// nlohmann's typed reads is the input's fault: std::runtime_error("unexpected JSON type (...)"), which
+// the caller names with its file like its other refusals.
+template <class F>
+auto json_typed(F&& f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const nlohmann::json::exception& e) {
+    throw std::runtime_error("unexpected JSON type (" + json_error_text(e) + ")");
+  }
+}
 // Parses JSON; InputError(origin, "malformed JSON: ...") on syntax errors.
 nlohmann::json parse_json(const std::string& text, const std::string& origin);
 float json_number(const nlohmann::json& j, const char* key, const std::string& origin);

@@ -8,44 +8,7 @@
 
 #include "cache/stores/store_key.h"
 #include "tests/fuzz/fuzz_util.h"
-
-namespace {
-
-std::string server_path(std::string p) {
-  for (int round = 0; round < 8; ++round) {
-    std::string d;
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      const auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; };
-      if (p[i] == '%' && i + 2 < p.size() && hex(p[i + 1]) && hex(p[i + 2])) {
-        d += char(std::stoi(p.substr(i + 1, 2), nullptr, 16));
-        i += 2;
-      } else {
-        d += p[i];
-      }
-    }
-    p = d;
-  }
-  for (char& c : p) c = c == '\\' ? '/' : c;
-  std::vector<std::string> out;
-  std::size_t a = 0;
-  while (a <= p.size()) {
-    std::size_t b = p.find('/', a);
-    if (b == std::string::npos) b = p.size();
-    const std::string seg = p.substr(a, b - a);
-    if (seg == "..") {
-      if (!out.empty()) out.pop_back();
-      else return "<above the root>";
-    } else if (!seg.empty() && seg != ".") {
-      out.push_back(seg);
-    }
-    a = b + 1;
-  }
-  std::string r;
-  for (const std::string& s : out) r += "/" + s;
-  return r;
-}
-
-}  // namespace
+#include "tests/server_path.h"
 
 SL_FUZZ_TARGET(input) {
   std::string normal;
@@ -56,7 +19,7 @@ SL_FUZZ_TARGET(input) {
   }
   const std::string url = sl::store_url("http://host/data/s.zarr", input);
   if (url.rfind("http://host/", 0) != 0) __builtin_trap();
-  const std::string served = server_path(url.substr(11));
+  const std::string served = sl::test::server_path(url.substr(11));
   if (!(served == "/data/s.zarr" || served.rfind("/data/s.zarr/", 0) == 0)) __builtin_trap();
   const std::string local = std::filesystem::path(sl::local_store_path("/data/s.zarr", input)).lexically_normal().string();
   if (!(local == "/data/s.zarr" || local == "/data/s.zarr/" || local.rfind("/data/s.zarr/", 0) == 0)) __builtin_trap();

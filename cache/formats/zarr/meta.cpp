@@ -337,9 +337,7 @@ template <class F> auto typed_json(const std::string& store, const std::string& 
   try {
     return f();
   } catch (const json::exception& e) {
-    std::string w = e.what();
-    const auto pos = w.find("] ");
-    throw InputError(store, where + "unexpected JSON type (" + (pos == std::string::npos ? w : w.substr(pos + 2)) + ")");
+    throw InputError(store, where + "unexpected JSON type (" + json_error_text(e) + ")");
   }
 }
 

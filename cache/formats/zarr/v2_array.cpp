@@ -5,6 +5,7 @@
 #include <stdexcept>
 
 #include "core/util/checked.h"
+#include "core/util/json_util.h"
 
 namespace sl::zarr::v2 {
 namespace {
@@ -48,15 +49,7 @@ ArrayMeta parse_array_checked(const json& j);
 
 }  // namespace
 
-ArrayMeta parse_array(const json& j) {
-  try {
-    return parse_array_checked(j);
-  } catch (const json::exception& e) {
-    std::string what = e.what();
-    const auto pos = what.find("] ");  // "[json.exception.type_error.302] type must be string, but is number"
-    throw std::runtime_error("unexpected JSON type (" + (pos == std::string::npos ? what : what.substr(pos + 2)) + ")");
-  }
-}
+ArrayMeta parse_array(const json& j) { return json_typed([&] { return parse_array_checked(j); }); }
 
 namespace {
 

@@ -12,6 +12,7 @@
 
 #include "cache/stores/byte_store.h"
 #include "cache/stores/http_store.h"
+#include "tests/server_path.h"
 #include "tests/test_util.h"
 
 namespace sl {
@@ -63,42 +64,6 @@ TEST(StoreKey, LocalAndUrlFormsJoinTheNormalKey) {
   EXPECT_THROW(http.read("%2e%2e/info", kMaxMetadataBytes), std::runtime_error);
 }
 
-// What a server makes of a URL path (RFC 3986 remove_dot_segments after percent-decoding, as often as
-// a chain of proxies and servers might decode, backslashes read as '/'), and what a kernel makes of a
-// local path (lexically; symlinks are the next test's).
-std::string server_path(std::string p) {
-  for (int round = 0; round < 4; ++round) {
-    std::string d;
-    for (std::size_t i = 0; i < p.size(); ++i) {
-      auto hex = [](char c) { return std::isxdigit(static_cast<unsigned char>(c)) != 0; };
-      if (p[i] == '%' && i + 2 < p.size() && hex(p[i + 1]) && hex(p[i + 2])) {
-        d += char(std::stoi(p.substr(i + 1, 2), nullptr, 16));
-        i += 2;
-      } else {
-        d += p[i];
-      }
-    }
-    p = d;
-  }
-  for (char& c : p) c = c == '\\' ? '/' : c;
-  std::vector<std::string> out;
-  std::size_t a = 0;
-  while (a <= p.size()) {
-    std::size_t b = p.find('/', a);
-    if (b == std::string::npos) b = p.size();
-    const std::string seg = p.substr(a, b - a);
-    if (seg == "..") {
-      if (!out.empty()) out.pop_back();
-    } else if (!seg.empty() && seg != ".") {
-      out.push_back(seg);
-    }
-    a = b + 1;
-  }
-  std::string r;
-  for (const std::string& s : out) r += "/" + s;
-  return r;
-}
-
 rc::Gen<std::string> key_segment() {
   return rc::gen::oneOf(
       rc::gen::element<std::string>(".", "..", "%2e", "%2E", "%2e%2e", "%2E%2e", "%252e%252e", "%2f", "%2F", "%5c", "\\",
@@ -128,7 +93,7 @@ RC_GTEST_PROP(StoreKey, NoKeyResolvesOutsideItsStore, ()) {
   // URL form: the path the server serves lies below the store's path.
   const std::string url = store_url("http://host/data/s.zarr", k);
   RC_ASSERT(url.rfind("http://host/", 0) == 0u);
-  const std::string served = server_path(url.substr(std::string("http://host").size()));
+  const std::string served = test::server_path(url.substr(std::string("http://host").size()));
   RC_ASSERT(served == "/data/s.zarr" || served.rfind("/data/s.zarr/", 0) == 0u);
   // Local form: the file named lies below the root.
   const fs::path local = fs::path(local_store_path("/data/s.zarr", k)).lexically_normal();
