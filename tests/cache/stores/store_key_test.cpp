@@ -44,11 +44,11 @@ TEST(StoreKey, NormalKeysPassInNormalForm) {
 TEST(StoreKey, EscapesAreRefusedInEveryEncoding) {
   for (const char* k : {"..", "../other.zarr/0", "a/../../b", "0/..", "%2e%2e/x", "%2E%2E/x", "%2e./x", ".%2E/x",
                         "a%2F..%2Fb", "a%2f%2e%2e%2fb", "%252e%252e/x", "%25252e%25252e/x", "/etc/passwd", "%2Fetc",
-                        "a\\..\\b", "a%5c..%5cb", "a//b", "a%2F%2Fb", "a?x", "a#x", "a%3F", std::string("a\0b", 3).c_str(),
-                        "a%00b", "a\nb", "a%0a", "%", "%2", "%zz", "a%2"}) {
+                        "a\\..\\b", "a%5c..%5cb", "a//b", "a%2F%2Fb", "a?x", "a#x", "a%3F", "a%00b", "a\nb", "a%0a",
+                        "%", "%2", "%zz", "a%2"}) {
     EXPECT_TRUE(refused(k)) << "'" << k << "': " << refusal(k);
   }
-  EXPECT_TRUE(refused(std::string("a\0b", 3)));
+  EXPECT_TRUE(refused(std::string("a\0b", 3)));  // a NUL inside the key (a const char* would end at it)
   EXPECT_NE(refusal("%2e%2e/x").find("key '%2e%2e/x' has a '..' segment"), std::string::npos) << refusal("%2e%2e/x");
   EXPECT_NE(refusal(std::string("a\0b", 3)).find("key 'a\\x00b' holds a control byte"), std::string::npos);
 }
