@@ -42,17 +42,6 @@ std::vector<std::int64_t> int_list(const json& j, const char* key) {
 
 namespace {
 
-// The checks below read values of a type they test first, but a member of an unexpected type (a
-// number where a name belongs) can still reach one of nlohmann's typed reads: its type_error is the
-// metadata's fault like every other refusal here.
-ArrayMeta parse_array_checked(const json& j);
-
-}  // namespace
-
-ArrayMeta parse_array(const json& j) { return json_typed([&] { return parse_array_checked(j); }); }
-
-namespace {
-
 ArrayMeta parse_array_checked(const json& j) {
   if (!j.is_object()) throw std::runtime_error(".zarray is not a JSON object");
   if (!j.contains("zarr_format") || j["zarr_format"] != 2) {
@@ -112,6 +101,11 @@ ArrayMeta parse_array_checked(const json& j) {
 }
 
 }  // namespace
+
+// The checks above read values of a type they test first, but a member of an unexpected type (a
+// number where a name belongs) can still reach one of nlohmann's typed reads: json_typed makes it the
+// metadata's fault like every other refusal here.
+ArrayMeta parse_array(const json& j) { return json_typed([&] { return parse_array_checked(j); }); }
 
 std::string dtype_string(VoxelType t) {
   switch (t) {
