@@ -51,7 +51,8 @@ struct LodParams {
   }
   // floorf(log2f(x)) for x >= 2, from the exponent's bits: a log2f within a few ulps of exact rounds
   // to the exponent e alike unless x lies within 2^-16 of 2^e or 2^(e+1), where log2f itself answers
-  // (so the level is that of log2f everywhere). Per sample on the CPU, the call cost more than a sample.
+  // (so the level is that of log2f everywhere). level_at runs per sample, where a log2f call would
+  // cost about as much as the sample.
   SL_HOST_DEVICE SL_INLINE static int floor_log2(float x) {
 #if defined(__CUDA_ARCH__)
     const std::uint32_t bits = __float_as_uint(x);

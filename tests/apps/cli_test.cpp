@@ -252,9 +252,9 @@ TEST(CliOutOfCore, BenchReportsFramesToConvergencePerView) {
 
 // Issue 14's soak flags: a generated orbit-zoom path, RSS at given frames, stalls, time to
 // convergence and metadata memory in the JSON; prefetch counted apart; bad values are one line.
-// bench's frames do not wait for the loader, and a 32x32 frame takes about a millisecond: under a
-// loaded CI machine a view's default 40 frames once passed before a starved loader delivered. A view
-// has 2000 frames here; it converges in about ten.
+// bench's frames do not wait for the loader, and a 32x32 frame takes about a millisecond: on a loaded
+// machine a view's default 40 frames can pass before a starved loader delivers. A view has 2000 frames
+// here; it converges in about ten.
 TEST(CliOutOfCore, BenchSoakFlagsReportRssStallsAndConvergence) {
   const auto dir = test::scratch_dir();
   test::RunResult r = test::run_sparseleap(
